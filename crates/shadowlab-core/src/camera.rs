@@ -1,0 +1,143 @@
+//! Named camera views and their projection conventions.
+//!
+//! Conventions (shared by the GPU renderer and the CPU reference, so that pixel `(x, y)` is the same
+//! surface point in both): right-handed world, the camera looks along −Z of its own frame,
+//! wgpu-style clip space with depth in [0, 1], pixel (0, 0) at the top left, and the primary ray of
+//! a pixel through its centre `(x + ½, y + ½)`.
+
+use glam::{Mat4, Vec3};
+
+/// A perspective camera placed by position, target and up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct View {
+    pub name: String,
+    pub position: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+    pub near: f32,
+    pub far: f32,
+}
+
+impl View {
+    /// A view with a 60° vertical field of view.
+    pub fn new(name: impl Into<String>, position: Vec3, target: Vec3, near: f32, far: f32) -> Self {
+        Self { name: name.into(), position, target, up: Vec3::Y, fov_y: 60f32.to_radians(), near, far }
+    }
+
+    pub fn with_fov_degrees(mut self, fov_y_degrees: f32) -> Self {
+        self.fov_y = fov_y_degrees.to_radians();
+        self
+    }
+
+    pub fn with_up(mut self, up: Vec3) -> Self {
+        self.up = up;
+        self
+    }
+
+    /// Unit viewing direction.
+    pub fn forward(&self) -> Vec3 {
+        (self.target - self.position).normalize()
+    }
+
+    /// Orthonormal camera frame `(right, up, forward)`.
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let f = self.forward();
+        let r = f.cross(self.up).normalize();
+        let u = r.cross(f);
+        (r, u, f)
+    }
+
+    pub fn view_matrix(&self) -> Mat4 {
+        glam::camera::rh::view::look_at_mat4(self.position, self.target, self.up)
+    }
+
+    /// Perspective projection with depth in [0, 1] (wgpu, D3D, Metal).
+    pub fn projection(&self, aspect: f32) -> Mat4 {
+        // wgpu's clip space is D3D's: y up, depth in [0, 1].
+        glam::camera::rh::proj::directx::perspective(self.fov_y, aspect, self.near, self.far)
+    }
+
+    pub fn view_projection(&self, width: u32, height: u32) -> Mat4 {
+        self.projection(width as f32 / height.max(1) as f32) * self.view_matrix()
+    }
+
+    /// The primary ray through the centre of pixel `(x, y)` of a `width × height` image: its origin
+    /// (the camera position) and unit direction.
+    pub fn pixel_ray(&self, x: u32, y: u32, width: u32, height: u32) -> (Vec3, Vec3) {
+        let (r, u, f) = self.basis();
+        let t = (0.5 * self.fov_y).tan();
+        let aspect = width as f32 / height.max(1) as f32;
+        let sx = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * t * aspect;
+        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * t;
+        (self.position, (f + sx * r + sy * u).normalize())
+    }
+
+    /// Returns a message naming the first unusable value.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.position.is_finite() && self.target.is_finite() && self.up.is_finite()) {
+            return Err("position, target and up must be finite".to_owned());
+        }
+        let d = self.target - self.position;
+        if d.length() <= 1e-6 * self.position.length().max(1.0) {
+            return Err("target coincides with position".to_owned());
+        }
+        if d.normalize().cross(self.up).length() < 1e-4 {
+            return Err("up is parallel to the viewing direction".to_owned());
+        }
+        let fov = self.fov_y.to_degrees();
+        if !(fov.is_finite() && fov > 0.1 && fov < 179.0) {
+            return Err(format!("vertical field of view {fov}° must be in (0.1°, 179°)"));
+        }
+        if !(self.near.is_finite() && self.near > 0.0) {
+            return Err(format!("near {} must be > 0", self.near));
+        }
+        if !(self.far.is_finite() && self.far > self.near) {
+            return Err(format!("far {} must be finite and > near {}", self.far, self.near));
+        }
+        if self.far / self.near > 1.0e7 {
+            return Err(format!(
+                "far/near = {} exceeds 1e7: depth precision is lost",
+                self.far / self.near
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec4Swizzles;
+
+    #[test]
+    fn pixel_ray_matches_projection() {
+        let v = View::new("v", Vec3::new(1.0, 2.0, 5.0), Vec3::new(0.0, 0.5, 0.0), 0.1, 100.0)
+            .with_fov_degrees(50.0);
+        let (w, h) = (64, 48);
+        let vp = v.view_projection(w, h);
+        for &(x, y) in &[(0u32, 0u32), (63, 47), (10, 30), (32, 24)] {
+            let (o, d) = v.pixel_ray(x, y, w, h);
+            let p = o + 3.0 * d;
+            let c = vp * p.extend(1.0);
+            let ndc = c.xyz() / c.w;
+            let px = (ndc.x * 0.5 + 0.5) * w as f32;
+            let py = (0.5 - ndc.y * 0.5) * h as f32;
+            assert!((px - (x as f32 + 0.5)).abs() < 1e-3, "{px} vs {x}");
+            assert!((py - (y as f32 + 0.5)).abs() < 1e-3, "{py} vs {y}");
+            assert!(ndc.z > 0.0 && ndc.z < 1.0);
+        }
+    }
+
+    #[test]
+    fn check_names_problems() {
+        let v = View::new("v", Vec3::ZERO, Vec3::Y, 0.1, 10.0);
+        assert!(v.check().unwrap_err().contains("parallel"));
+        let v = View::new("v", Vec3::ZERO, Vec3::X, 0.0, 10.0);
+        assert!(v.check().unwrap_err().contains("near"));
+        let v = View::new("v", Vec3::ZERO, Vec3::X, 1.0, 0.5);
+        assert!(v.check().unwrap_err().contains("far"));
+        View::new("v", Vec3::ZERO, Vec3::X, 0.1, 10.0).check().unwrap();
+    }
+}

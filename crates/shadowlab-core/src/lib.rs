@@ -1,0 +1,41 @@
+//! # shadowlab-core
+//!
+//! The CPU half of shadowlab, shared by every other crate and free of any GPU dependency: the scene
+//! model ([`Scene`]: meshes, materials, instances, lights, views), loaders for glTF, OBJ and TOML
+//! scene files, the built-in procedural scenes, mesh topology (welding, edge → face maps,
+//! closedness), emitter sampling patterns and the typed parameters used by scenes and techniques.
+//!
+//! ```
+//! let loaded = shadowlab_core::load_scene("penumbra").unwrap();
+//! let scene = loaded.scene;
+//! assert_eq!(scene.lights[0].type_name(), "rect");
+//! assert!(scene.view("default").is_some());
+//! ```
+
+pub mod bounds;
+pub mod camera;
+pub mod error;
+pub mod light;
+pub mod load;
+pub mod material;
+pub mod mesh;
+pub mod params;
+pub mod primitives;
+pub mod sampling;
+pub mod scene;
+pub mod scenes;
+pub mod surface;
+pub mod topology;
+
+pub use bounds::Aabb;
+pub use camera::View;
+pub use error::{Location, SceneError};
+pub use glam;
+pub use light::{Light, LightKind};
+pub use load::{Loaded, load_scene};
+pub use material::{Material, TextureRef};
+pub use mesh::Mesh;
+pub use params::{ParamDef, ParamError, ParamKind, ParamSet, ParamValue};
+pub use scene::{Instance, LightId, MaterialId, MeshId, Mobility, Role, Scene, SceneStats};
+pub use surface::SurfaceBuffer;
+pub use topology::{Topology, TopologyReport};

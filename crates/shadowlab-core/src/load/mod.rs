@@ -1,0 +1,92 @@
+//! Scene loading: built-in scenes by name, and files by extension (`.toml`, `.gltf`, `.glb`, `.obj`).
+//!
+//! A loader either returns a complete, validated scene or an error that says what and where; it
+//! never returns a partial scene and never panics. Things worth knowing that are not errors (a
+//! missing MTL file, an orthographic camera skipped) come back as warnings for the caller to show.
+
+pub mod gltf;
+pub mod obj;
+pub mod scene_file;
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::camera::View;
+use crate::error::{Location, Result, SceneError};
+use crate::light::{Light, LightKind};
+use crate::scene::Scene;
+use crate::scenes;
+
+/// A loaded scene and what the loader thinks the user should know.
+#[derive(Debug)]
+pub struct Loaded {
+    pub scene: Scene,
+    pub warnings: Vec<String>,
+}
+
+/// Loads `spec`: a built-in scene name with optional options (`terrain:sun=0.27`), or a path to a
+/// scene file. The result is validated; a file without views or lights gets a default of each
+/// (with a warning), so that every command can run on a bare model.
+pub fn load_scene(spec: &str) -> Result<Loaded> {
+    let path = Path::new(spec);
+    if path.exists() || spec.contains(['/', '\\']) || has_scene_extension(path) {
+        let mut loaded = load_file(path)?;
+        add_defaults(&mut loaded);
+        loaded.scene.validate().map_err(|e| e.in_file(path))?;
+        return Ok(loaded);
+    }
+    let scene = scenes::build(spec)?;
+    scene.validate()?;
+    Ok(Loaded { scene, warnings: Vec::new() })
+}
+
+fn has_scene_extension(path: &Path) -> bool {
+    matches!(extension(path).as_deref(), Some("toml" | "gltf" | "glb" | "obj"))
+}
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase())
+}
+
+/// Loads a file by its extension, without defaults or whole-scene validation (used for files
+/// placed by a scene file too).
+pub fn load_file(path: &Path) -> Result<Loaded> {
+    if !path.exists() {
+        return Err(SceneError::Io {
+            location: Location::file(path),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    match extension(path).as_deref() {
+        Some("toml") => scene_file::load(path),
+        Some("gltf" | "glb") => gltf::load(path),
+        Some("obj") => obj::load(path),
+        _ => Err(SceneError::UnsupportedFormat { location: Location::file(path) }),
+    }
+}
+
+/// Gives a scene without views a view that frames its bounds, and one without lights a sun.
+pub fn add_defaults(loaded: &mut Loaded) {
+    let scene = &mut loaded.scene;
+    let bounds = scene.bounds();
+    if bounds.is_empty() || !bounds.diagonal().is_finite() {
+        return; // validation will say why
+    }
+    let (c, d) = (bounds.center(), bounds.diagonal().max(1e-6));
+    if scene.views.is_empty() {
+        let dir = Vec3::new(0.55, 0.45, 0.7).normalize();
+        scene.views.push(View::new("default", c + dir * 1.1 * d, c, 0.01 * d, 10.0 * d).with_fov_degrees(50.0));
+        loaded.warnings.push("the file has no camera: added view 'default' framing the scene".to_owned());
+    }
+    if scene.lights.is_empty() {
+        let direction = Vec3::new(-0.35, -1.0, -0.45).normalize();
+        scene.add_light(Light::new(
+            "sun",
+            LightKind::Directional { direction, angular_radius: 0.27f32.to_radians() },
+            Vec3::new(1.0, 0.96, 0.9),
+            3.0,
+        ));
+        loaded.warnings.push("the file has no lights: added directional light 'sun'".to_owned());
+    }
+}

@@ -1,0 +1,190 @@
+//! The ground truth V_l(p) of DESIGN.md §3, by ray tracing.
+//!
+//! Hard lights (zero-size emitters) cast one ray per pixel. Area emitters are integrated with N
+//! stratified samples per pixel (a jittered grid on the unit square, mapped onto the rectangle, the
+//! disk or the cone by [`shadowlab_core::sampling`]), each pixel with its own random stream derived
+//! from `(seed, light, pixel)`: the same input gives bit-identical output on any number of threads.
+//!
+//! **Ray origins.** A shadow ray starts at `p + ε·n`, with ε = [`EPSILON_SCALE`] × the scene's
+//! bounding-box diagonal, so that it does not hit the surface it starts on. G-buffer positions carry
+//! float error of about 1e-6 of their magnitude; 1e-5 of the scene size leaves a margin of ten or more
+//! for every built-in scene, and is small against any shadow feature (0.07 mm in `room`, 1 cm
+//! over the 800 m `terrain`).
+//!
+//! **Samples below the horizon.** An emitter sample behind the surface's tangent plane (n·ω ≤ 0) is
+//! hidden by the surface itself and counts as occluded: a point sees no light through the body it
+//! lies on.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use shadowlab_core::sampling::{EmitterSample, Rng, jittered_grid, sample_emitter};
+use shadowlab_core::{Light, SurfaceBuffer};
+
+use crate::bvh::{PreparedRay, SceneBvh};
+
+/// Ray origin offset as a fraction of the scene diagonal (see the module docs).
+pub const EPSILON_SCALE: f32 = 1.0e-5;
+
+/// How the reference integrates area emitters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceSettings {
+    /// Emitter samples per pixel for area lights (hard lights always use one ray).
+    pub samples: u32,
+    pub seed: u64,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        Self { samples: 256, seed: 1 }
+    }
+}
+
+/// One light's reference visibility over a surface buffer.
+#[derive(Debug, Clone)]
+pub struct Visibility {
+    pub width: u32,
+    pub height: u32,
+    /// V in [0, 1] for relevant pixels, NaN for the others (background, back-facing, out of range
+    /// or outside a spot's cone).
+    pub values: Vec<f32>,
+    pub relevant_pixels: usize,
+    /// Shadow rays traced.
+    pub rays: u64,
+    pub seconds: f64,
+}
+
+impl Visibility {
+    pub fn is_relevant(&self, i: usize) -> bool {
+        !self.values[i].is_nan()
+    }
+
+    /// Shadow rays per second of wall time.
+    pub fn rays_per_second(&self) -> f64 {
+        self.rays as f64 / self.seconds.max(1e-9)
+    }
+}
+
+/// Progress callback: `(pixels done, pixels total)`; called from worker threads.
+pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
+/// Computes V for every relevant pixel of `surface` and `light` (`light_index` keys the random
+/// streams, so lights get independent samples).
+pub fn light_visibility(
+    bvh: &SceneBvh,
+    surface: &SurfaceBuffer,
+    light: &Light,
+    light_index: u32,
+    settings: &ReferenceSettings,
+    progress: Option<Progress<'_>>,
+) -> Visibility {
+    let start = Instant::now();
+    let eps = EPSILON_SCALE * bvh.scene_diagonal.max(1e-6);
+    let samples = if light.is_hard() { 1 } else { settings.samples.max(1) };
+    let width = surface.width as usize;
+    let total = surface.len();
+    let done = AtomicUsize::new(0);
+    let rays = std::sync::atomic::AtomicU64::new(0);
+    let mut values = vec![f32::NAN; total];
+    values.par_chunks_mut(width.max(1)).enumerate().for_each(|(row, out)| {
+        let mut pattern = Vec::with_capacity(samples as usize);
+        let mut row_rays = 0u64;
+        for (x, v) in out.iter_mut().enumerate() {
+            let i = row * width + x;
+            let (p, n) = (surface.positions[i], surface.normals[i]);
+            if !surface.covered[i] || !light.is_relevant(p, n) {
+                continue;
+            }
+            let origin = p + n * eps;
+            if samples == 1 && light.is_hard() {
+                row_rays += 1;
+                *v = if sample_visible(bvh, light, origin, n, Vec2::splat(0.5), eps) { 1.0 } else { 0.0 };
+                continue;
+            }
+            let stream = (u64::from(light_index) << 40) ^ i as u64;
+            let mut rng = Rng::for_stream(settings.seed, stream);
+            jittered_grid(samples, &mut rng, &mut pattern);
+            let visible = pattern.iter().filter(|&&u| sample_visible(bvh, light, origin, n, u, eps)).count();
+            row_rays += samples as u64;
+            *v = visible as f32 / samples as f32;
+        }
+        rays.fetch_add(row_rays, Ordering::Relaxed);
+        let d = done.fetch_add(out.len(), Ordering::Relaxed) + out.len();
+        if let Some(progress) = progress {
+            progress(d, total);
+        }
+    });
+    let relevant_pixels = values.iter().filter(|v| !v.is_nan()).count();
+    Visibility {
+        width: surface.width,
+        height: surface.height,
+        values,
+        relevant_pixels,
+        rays: rays.into_inner(),
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// Traces the shadow ray of one emitter sample `u` from `origin` (already offset along `n`).
+#[inline]
+fn sample_visible(bvh: &SceneBvh, light: &Light, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> bool {
+    let (dir, tmax) = match sample_emitter(light, origin, u) {
+        EmitterSample::Point(q) => {
+            let d = q - origin;
+            let len = d.length();
+            if len <= eps {
+                return true;
+            }
+            (d / len, len - eps)
+        }
+        EmitterSample::Direction(d) => (d, f32::INFINITY),
+    };
+    if n.dot(dir) <= 0.0 {
+        return false; // behind the tangent plane: the surface itself hides the sample
+    }
+    bvh.unoccluded(&PreparedRay::new(origin, dir, 0.0, tmax))
+}
+
+/// Reference visibility of several lights, with their total timing.
+#[derive(Debug, Clone)]
+pub struct ReferenceResult {
+    /// In the order of the `lights` argument.
+    pub lights: Vec<Visibility>,
+    pub seconds: f64,
+    pub rays: u64,
+    pub bvh_build: Duration,
+}
+
+impl ReferenceResult {
+    pub fn rays_per_second(&self) -> f64 {
+        self.rays as f64 / self.seconds.max(1e-9)
+    }
+}
+
+/// Computes the reference for `lights` (pairs of scene index and light) over one surface buffer.
+/// `progress` sees the pixels of all lights together.
+pub fn reference(
+    bvh: &SceneBvh,
+    surface: &SurfaceBuffer,
+    lights: &[(u32, &Light)],
+    settings: &ReferenceSettings,
+    progress: Option<Progress<'_>>,
+) -> ReferenceResult {
+    let start = Instant::now();
+    let per_light = surface.len();
+    let total = per_light * lights.len();
+    let mut out = Vec::with_capacity(lights.len());
+    for (k, &(index, light)) in lights.iter().enumerate() {
+        let offset = k * per_light;
+        let wrapped = progress.map(|p| move |d: usize, _t: usize| p(offset + d, total));
+        let v = match &wrapped {
+            Some(f) => light_visibility(bvh, surface, light, index, settings, Some(f)),
+            None => light_visibility(bvh, surface, light, index, settings, None),
+        };
+        out.push(v);
+    }
+    let rays = out.iter().map(|v| v.rays).sum();
+    ReferenceResult { lights: out, seconds: start.elapsed().as_secs_f64(), rays, bvh_build: bvh.build_time }
+}

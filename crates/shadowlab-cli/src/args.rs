@@ -92,7 +92,8 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
 
 /// A file-name-safe form of a light or technique name.
 pub fn slug(name: &str) -> String {
-    let s: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' }).collect();
+    let s: String =
+        name.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' }).collect();
     let s = s.split('-').filter(|p| !p.is_empty()).collect::<Vec<_>>().join("-");
     if s.is_empty() { "unnamed".to_owned() } else { s }
 }

@@ -97,10 +97,7 @@ impl View {
             return Err(format!("far {} must be finite and > near {}", self.far, self.near));
         }
         if self.far / self.near > 1.0e7 {
-            return Err(format!(
-                "far/near = {} exceeds 1e7: depth precision is lost",
-                self.far / self.near
-            ));
+            return Err(format!("far/near = {} exceeds 1e7: depth precision is lost", self.far / self.near));
         }
         Ok(())
     }
@@ -113,8 +110,7 @@ mod tests {
 
     #[test]
     fn pixel_ray_matches_projection() {
-        let v = View::new("v", Vec3::new(1.0, 2.0, 5.0), Vec3::new(0.0, 0.5, 0.0), 0.1, 100.0)
-            .with_fov_degrees(50.0);
+        let v = View::new("v", Vec3::new(1.0, 2.0, 5.0), Vec3::new(0.0, 0.5, 0.0), 0.1, 100.0).with_fov_degrees(50.0);
         let (w, h) = (64, 48);
         let vp = v.view_projection(w, h);
         for &(x, y) in &[(0u32, 0u32), (63, 47), (10, 30), (32, 24)] {

@@ -122,15 +122,9 @@ impl SceneError {
     pub fn in_file(self, file: impl AsRef<Path>) -> Self {
         match self {
             Self::Io { location, source } => Self::Io { location: location.in_file(file), source },
-            Self::Parse { location, message } => {
-                Self::Parse { location: location.in_file(file), message }
-            }
-            Self::Invalid { location, message } => {
-                Self::Invalid { location: location.in_file(file), message }
-            }
-            Self::UnsupportedFormat { location } => {
-                Self::UnsupportedFormat { location: location.in_file(file) }
-            }
+            Self::Parse { location, message } => Self::Parse { location: location.in_file(file), message },
+            Self::Invalid { location, message } => Self::Invalid { location: location.in_file(file), message },
+            Self::UnsupportedFormat { location } => Self::UnsupportedFormat { location: location.in_file(file) },
             other => other,
         }
     }

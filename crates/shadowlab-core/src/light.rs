@@ -65,9 +65,9 @@ impl Light {
     /// The emitter's centre; `None` for directional lights.
     pub fn position(&self) -> Option<Vec3> {
         match self.kind {
-            LightKind::Point { position, .. }
-            | LightKind::Spot { position, .. }
-            | LightKind::Rect { position, .. } => Some(position),
+            LightKind::Point { position, .. } | LightKind::Spot { position, .. } | LightKind::Rect { position, .. } => {
+                Some(position)
+            }
             LightKind::Directional { .. } => None,
         }
     }
@@ -147,9 +147,7 @@ impl Light {
             return false;
         }
         match self.kind {
-            LightKind::Spot { direction, outer_angle, .. } => {
-                (-l).dot(direction) > outer_angle.cos()
-            }
+            LightKind::Spot { direction, outer_angle, .. } => (-l).dot(direction) > outer_angle.cos(),
             LightKind::Rect { direction, .. } => (-l).dot(direction) > 0.0,
             _ => true,
         }
@@ -235,10 +233,7 @@ impl Light {
                 check_radius(radius)?;
                 unit("direction", direction)?;
                 if !(outer_angle.is_finite() && outer_angle > 0.0 && outer_angle <= MAX_SPOT_HALF_ANGLE) {
-                    return Err(format!(
-                        "outer cone half-angle {}° must be in (0°, 90°]",
-                        outer_angle.to_degrees()
-                    ));
+                    return Err(format!("outer cone half-angle {}° must be in (0°, 90°]", outer_angle.to_degrees()));
                 }
                 if !(inner_angle.is_finite() && inner_angle >= 0.0 && inner_angle <= outer_angle) {
                     return Err(format!(
@@ -251,10 +246,7 @@ impl Light {
             LightKind::Directional { direction, angular_radius } => {
                 unit("direction", direction)?;
                 if !(angular_radius.is_finite() && (0.0..=MAX_ANGULAR_RADIUS).contains(&angular_radius)) {
-                    return Err(format!(
-                        "angular radius {}° must be in [0°, 45°]",
-                        angular_radius.to_degrees()
-                    ));
+                    return Err(format!("angular radius {}° must be in [0°, 45°]", angular_radius.to_degrees()));
                 }
             }
             LightKind::Rect { direction, tangent, width, height, .. } => {
@@ -303,20 +295,15 @@ mod tests {
         assert!(!s.is_relevant(Vec3::new(2.0, 0.0, 0.0), Vec3::Y), "outside the 30° cone");
         let s = s.with_range(1.5);
         assert!(!s.is_relevant(Vec3::ZERO, Vec3::Y), "out of range");
-        let sun = Light::new(
-            "sun",
-            LightKind::Directional { direction: -Vec3::Y, angular_radius: 0.0 },
-            Vec3::ONE,
-            1.0,
-        );
+        let sun =
+            Light::new("sun", LightKind::Directional { direction: -Vec3::Y, angular_radius: 0.0 }, Vec3::ONE, 1.0);
         assert!(sun.is_relevant(Vec3::splat(1e6), Vec3::Y));
         assert!(!sun.is_relevant(Vec3::ZERO, Vec3::X), "grazing counts as not in front");
     }
 
     #[test]
     fn attenuation_falls_to_zero_at_range() {
-        let p = Light::new("p", LightKind::Point { position: Vec3::ZERO, radius: 0.0 }, Vec3::ONE, 1.0)
-            .with_range(4.0);
+        let p = Light::new("p", LightKind::Point { position: Vec3::ZERO, radius: 0.0 }, Vec3::ONE, 1.0).with_range(4.0);
         assert!((p.attenuation(Vec3::new(1.0, 0.0, 0.0)) - (1.0 - 1.0 / 256.0)).abs() < 1e-6);
         assert_eq!(p.attenuation(Vec3::new(4.0, 0.0, 0.0)), 0.0);
         let s = spot();

@@ -62,9 +62,7 @@ impl Mesh {
         let normal_matrix = transform.matrix3.inverse().transpose();
         let mirror = transform.matrix3.determinant() < 0.0;
         self.positions.extend(other.positions.iter().map(|&p| transform.transform_point3(p)));
-        self.normals.extend(
-            other.normals.iter().map(|&n| (normal_matrix * n).normalize_or(Vec3::Y)),
-        );
+        self.normals.extend(other.normals.iter().map(|&n| (normal_matrix * n).normalize_or(Vec3::Y)));
         match (&mut self.uvs, &other.uvs) {
             (Some(a), Some(b)) => a.extend_from_slice(b),
             (Some(a), None) => a.extend(std::iter::repeat_n(Vec2::ZERO, other.positions.len())),
@@ -76,9 +74,12 @@ impl Mesh {
             }
             (None, None) => {}
         }
-        self.triangles.extend(other.triangles.iter().map(|&[a, b, c]| {
-            if mirror { [a + base, c + base, b + base] } else { [a + base, b + base, c + base] }
-        }));
+        self.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|&[a, b, c]| if mirror { [a + base, c + base, b + base] } else { [a + base, b + base, c + base] }),
+        );
     }
 
     /// Checks the invariants every consumer relies on. Returns a message naming the first problem.
@@ -100,12 +101,7 @@ impl Mesh {
         if let Some(uvs) = &self.uvs
             && uvs.len() != self.positions.len()
         {
-            return Err(format!(
-                "mesh '{}' has {} uvs for {} positions",
-                self.name,
-                uvs.len(),
-                self.positions.len()
-            ));
+            return Err(format!("mesh '{}' has {} uvs for {} positions", self.name, uvs.len(), self.positions.len()));
         }
         if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
             return Err(format!("mesh '{}': position {i} is not finite: {}", self.name, self.positions[i]));
@@ -255,10 +251,7 @@ mod tests {
     use super::*;
 
     fn quad() -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        (
-            vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 0.0, -1.0)],
-            vec![[0, 1, 2], [0, 2, 3]],
-        )
+        (vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 0.0, -1.0)], vec![[0, 1, 2], [0, 2, 3]])
     }
 
     #[test]

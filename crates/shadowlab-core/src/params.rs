@@ -11,9 +11,15 @@ use std::fmt;
 pub enum ParamKind {
     Bool,
     /// An integer in `min..=max`.
-    Int { min: i64, max: i64 },
+    Int {
+        min: i64,
+        max: i64,
+    },
     /// A finite real number in `min..=max`.
-    Float { min: f64, max: f64 },
+    Float {
+        min: f64,
+        max: f64,
+    },
     /// One of a fixed set of names.
     Choice(&'static [&'static str]),
 }
@@ -69,13 +75,7 @@ impl ParamDef {
         Self { name, kind: ParamKind::Int { min, max }, default: ParamValue::Int(default), doc }
     }
 
-    pub const fn float(
-        name: &'static str,
-        default: f64,
-        min: f64,
-        max: f64,
-        doc: &'static str,
-    ) -> Self {
+    pub const fn float(name: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> Self {
         Self { name, kind: ParamKind::Float { min, max }, default: ParamValue::Float(default), doc }
     }
 
@@ -101,11 +101,7 @@ impl ParamDef {
     /// Parses and range-checks `text` for this parameter.
     pub fn parse(&self, text: &str) -> Result<ParamValue, ParamError> {
         let text = text.trim();
-        let bad = |reason: String| ParamError::BadValue {
-            name: self.name.to_owned(),
-            value: text.to_owned(),
-            reason,
-        };
+        let bad = |reason: String| ParamError::BadValue { name: self.name.to_owned(), value: text.to_owned(), reason };
         match self.kind {
             ParamKind::Bool => match text.to_ascii_lowercase().as_str() {
                 "true" | "1" | "yes" | "on" => Ok(ParamValue::Bool(true)),
@@ -189,10 +185,7 @@ impl ParamSet {
     }
 
     /// Applies `K=V` assignments in order.
-    pub fn apply<'a>(
-        &mut self,
-        assignments: impl IntoIterator<Item = (&'a str, &'a str)>,
-    ) -> Result<(), ParamError> {
+    pub fn apply<'a>(&mut self, assignments: impl IntoIterator<Item = (&'a str, &'a str)>) -> Result<(), ParamError> {
         for (k, v) in assignments {
             self.set(k, v)?;
         }
@@ -240,9 +233,7 @@ impl ParamSet {
 
     /// `{"name": value, ...}` for reports.
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::Value::Object(
-            self.iter().map(|(d, v)| (d.name.to_owned(), v.to_json())).collect(),
-        )
+        serde_json::Value::Object(self.iter().map(|(d, v)| (d.name.to_owned(), v.to_json())).collect())
     }
 }
 
@@ -288,8 +279,7 @@ mod tests {
         let mut p = ParamSet::new(DEFS);
         assert!(!p.bool("focus"));
         assert_eq!(p.choice("scheme"), "log");
-        p.apply([("focus", "true"), ("splits", "4"), ("lambda", "0.25"), ("scheme", "Uniform")])
-            .unwrap();
+        p.apply([("focus", "true"), ("splits", "4"), ("lambda", "0.25"), ("scheme", "Uniform")]).unwrap();
         assert!(p.bool("focus"));
         assert_eq!(p.int("splits"), 4);
         assert_eq!(p.float("lambda"), 0.25);

@@ -15,7 +15,13 @@ const CREASE_DEGREES: f32 = 50.0;
 pub fn cuboid(size: Vec3) -> Mesh {
     let h = 0.5 * size;
     let p: Vec<Vec3> = (0..8)
-        .map(|i| Vec3::new(if i & 1 != 0 { h.x } else { -h.x }, if i & 2 != 0 { h.y } else { -h.y }, if i & 4 != 0 { h.z } else { -h.z }))
+        .map(|i| {
+            Vec3::new(
+                if i & 1 != 0 { h.x } else { -h.x },
+                if i & 2 != 0 { h.y } else { -h.y },
+                if i & 4 != 0 { h.z } else { -h.z },
+            )
+        })
         .collect();
     // Corner i has x = bit 0, y = bit 1, z = bit 2. Each face: two CCW triangles seen from outside.
     let quads: [[u32; 4]; 6] = [
@@ -84,11 +90,8 @@ pub fn lathe(profile: &[Vec2], closed_loop: bool, segments: u32) -> Mesh {
         let mut ring = Vec::with_capacity(segments as usize);
         for j in 0..segments {
             let phi = std::f32::consts::TAU * j as f32 / segments as f32;
-            let p = if q.x == 0.0 {
-                Vec3::new(0.0, q.y, 0.0)
-            } else {
-                Vec3::new(q.x * phi.cos(), q.y, q.x * phi.sin())
-            };
+            let p =
+                if q.x == 0.0 { Vec3::new(0.0, q.y, 0.0) } else { Vec3::new(q.x * phi.cos(), q.y, q.x * phi.sin()) };
             let key = p.to_array().map(canonical_bits);
             let next = positions.len() as u32;
             ring.push(*weld.entry(key).or_insert_with(|| {
@@ -342,7 +345,11 @@ mod tests {
         assert_closed_outward(&cylinder(0.5, 2.0, 64), PI * 0.25 * 2.0, 0.01);
         assert_closed_outward(&cone(1.0, 3.0, 64), PI * 1.0 / 3.0 * 3.0, 0.01);
         assert_closed_outward(&torus(2.0, 0.5, 64, 32), 2.0 * PI * PI * 2.0 * 0.25, 0.01);
-        assert_closed_outward(&slab_with_hole(4.0, 3.0, 0.2, Vec2::new(1.0, 1.0), Vec2::new(2.0, 2.5)), 0.2 * (12.0 - 1.5), 1e-5);
+        assert_closed_outward(
+            &slab_with_hole(4.0, 3.0, 0.2, Vec2::new(1.0, 1.0), Vec2::new(2.0, 2.5)),
+            0.2 * (12.0 - 1.5),
+            1e-5,
+        );
         assert_closed_outward(&rounded_box(Vec3::new(2.0, 1.0, 1.0), 0.0, 4), 2.0, 1e-5);
         assert_closed_outward(&beam(Vec3::ZERO, Vec3::new(1.0, 2.0, 2.0), 0.1), 0.03, 1e-4);
         assert_closed_outward(&prism(2.0, 1.0, 3.0), 3.0, 1e-5);

@@ -72,10 +72,7 @@ pub fn jittered_grid(n: u32, rng: &mut Rng, out: &mut Vec<Vec2>) {
     out.clear();
     for r in 0..rows {
         for c in 0..cols {
-            out.push(Vec2::new(
-                (c as f32 + rng.next_f32()) / cols as f32,
-                (r as f32 + rng.next_f32()) / rows as f32,
-            ));
+            out.push(Vec2::new((c as f32 + rng.next_f32()) / cols as f32, (r as f32 + rng.next_f32()) / rows as f32));
         }
     }
 }
@@ -115,10 +112,7 @@ pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let sign = 1.0f32.copysign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
-    (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 /// Where a shadow ray from a surface point goes for one emitter sample.

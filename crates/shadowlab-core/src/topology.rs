@@ -242,8 +242,7 @@ impl Topology {
             }
             used.iter().filter(|&&u| u).count()
         };
-        r.euler_characteristic = used_vertices as i64 - r.edges as i64
-            + (r.triangles - r.degenerate_triangles) as i64;
+        r.euler_characteristic = used_vertices as i64 - r.edges as i64 + (r.triangles - r.degenerate_triangles) as i64;
         r
     }
 }

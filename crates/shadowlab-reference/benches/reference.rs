@@ -16,7 +16,9 @@ fn bench(c: &mut Criterion) {
     println!("room 256x256, 64 samples/light: {} shadow rays, {:.2} M rays/s", once.rays, once.rays_per_second() / 1e6);
     let mut group = c.benchmark_group("reference");
     group.sample_size(10);
-    group.bench_function("room_256x256_64spp_4lights", |b| b.iter(|| reference(&bvh, &surface, &lights, &settings, None)));
+    group.bench_function("room_256x256_64spp_4lights", |b| {
+        b.iter(|| reference(&bvh, &surface, &lights, &settings, None))
+    });
     group.bench_function("bvh_build_room", |b| b.iter(|| SceneBvh::build(&scene, Selection::Casters)));
     group.finish();
 }

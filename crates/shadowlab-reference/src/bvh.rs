@@ -129,7 +129,11 @@ impl SceneBvh {
         let bvh = if triangles.is_empty() {
             CwBvh::default()
         } else {
-            obvhs::cwbvh::builder::build_cwbvh(&triangles, obvhs::BvhBuildParams::fast_build(), &mut Duration::default())
+            obvhs::cwbvh::builder::build_cwbvh(
+                &triangles,
+                obvhs::BvhBuildParams::fast_build(),
+                &mut Duration::default(),
+            )
         };
         // Store triangles in the BVH's leaf order, so traversal indexes them directly.
         let triangles = bvh.primitive_indices.iter().map(|&i| triangles[i as usize]).collect();
@@ -192,7 +196,11 @@ fn push_instance(scene: &Scene, index: usize, inst: &Instance, out: &mut Vec<Wor
     let world: Vec<Vec3A> = mesh.positions.iter().map(|&p| t.transform_point3a(p.into())).collect();
     for (k, tri) in mesh.triangles.iter().enumerate() {
         let [a, b, c] = tri.map(|i| world[i as usize]);
-        out.push(WorldTriangle { v: if mirror { [a, c, b] } else { [a, b, c] }, instance: index as u32, triangle: k as u32 });
+        out.push(WorldTriangle {
+            v: if mirror { [a, c, b] } else { [a, b, c] },
+            instance: index as u32,
+            triangle: k as u32,
+        });
     }
 }
 

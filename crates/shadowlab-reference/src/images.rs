@@ -53,7 +53,8 @@ pub fn write_mask_png(path: &Path, mask: &[bool], width: u32, height: u32) -> Re
 /// Writes an sRGB 8-bit RGB PNG.
 pub fn write_rgb_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<(), ImageError> {
     check_len(path, rgb.len(), width, height, 3)?;
-    let img: ImageBuffer<Rgb<u8>, Vec<u8>> = ImageBuffer::from_raw(width, height, rgb.to_vec()).expect("length checked");
+    let img: ImageBuffer<Rgb<u8>, Vec<u8>> =
+        ImageBuffer::from_raw(width, height, rgb.to_vec()).expect("length checked");
     img.save(path).map_err(|source| ImageError::Encode { path: path.to_path_buf(), source })
 }
 

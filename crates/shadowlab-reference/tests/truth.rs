@@ -54,7 +54,8 @@ fn sphere_shadow_is_the_analytic_disk() {
     scene.add_instance(Instance::new("ball", ball, grey, glam::Affine3A::from_translation(Vec3::new(0.0, 2.0, 0.0))));
     let light_pos = Vec3::new(0.0, 4.0, 0.0);
     scene.add_light(Light::new("bulb", LightKind::Point { position: light_pos, radius: 0.0 }, Vec3::ONE, 1.0));
-    let view = View::new("top", Vec3::new(0.0, 10.0, 0.0), Vec3::ZERO, 1.0, 20.0).with_up(-Vec3::Z).with_fov_degrees(20.0);
+    let view =
+        View::new("top", Vec3::new(0.0, 10.0, 0.0), Vec3::ZERO, 1.0, 20.0).with_up(-Vec3::Z).with_fov_degrees(20.0);
     let size = 128;
     let surface = trace_surface(&SceneBvh::build(&scene, Selection::All), &scene, &view, size, size);
     let bvh = SceneBvh::build(&scene, Selection::Casters);
@@ -89,7 +90,8 @@ fn same_seed_is_bit_identical_and_seeds_differ_only_by_noise() {
     let view = scene.view("default").unwrap();
     let surface = trace_surface(&SceneBvh::build(&scene, Selection::All), &scene, view, 64, 64);
     let bvh = SceneBvh::build(&scene, Selection::Casters);
-    let run = |seed| light_visibility(&bvh, &surface, &scene.lights[0], 0, &ReferenceSettings { samples: 64, seed }, None);
+    let run =
+        |seed| light_visibility(&bvh, &surface, &scene.lights[0], 0, &ReferenceSettings { samples: 64, seed }, None);
     let (a, b, c) = (run(1), run(1), run(2));
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&a.values), bits(&b.values), "same seed, same bits");

@@ -63,8 +63,22 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
     let flat = |v: &[glam::Vec3], covered: &[bool]| -> Vec<f32> {
         v.iter().zip(covered).flat_map(|(p, &c)| if c { p.to_array() } else { [f32::NAN; 3] }).collect()
     };
-    write_raw_f32(&args.out.join("positions"), &flat(&surface.positions, &surface.covered), w, h, 3, "world position xyz; NaN = background")?;
-    write_raw_f32(&args.out.join("normals"), &flat(&surface.normals, &surface.covered), w, h, 3, "unit world normal xyz; NaN = background")?;
+    write_raw_f32(
+        &args.out.join("positions"),
+        &flat(&surface.positions, &surface.covered),
+        w,
+        h,
+        3,
+        "world position xyz; NaN = background",
+    )?;
+    write_raw_f32(
+        &args.out.join("normals"),
+        &flat(&surface.normals, &surface.covered),
+        w,
+        h,
+        3,
+        "unit world normal xyz; NaN = background",
+    )?;
     let summary = json!({
         "scene": scene.name, "view": setup.view.name, "width": w, "height": h,
         "samples": args.samples, "seed": args.seed,

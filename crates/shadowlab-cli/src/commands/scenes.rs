@@ -46,7 +46,10 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
             "    {} triangles ({} instances), views: {}",
             s["triangles"],
             s["instances"],
-            s["views"].as_array().map(|v| v.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", ")).unwrap_or_default()
+            s["views"]
+                .as_array()
+                .map(|v| v.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", "))
+                .unwrap_or_default()
         );
         for l in s["lights"].as_array().into_iter().flatten() {
             println!(

@@ -37,7 +37,16 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
         .map_err(|e| SceneError::parse(file(), format!("buffers: {}", gltf_message(e))))?;
     let doc = &gltf.document;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "gltf".into());
-    let mut b = Builder { path, buffers: &buffers, scene: Scene::new(name), meshes: FxHashMap::default(), materials: FxHashMap::default(), warnings: Vec::new(), lights_seen: 0, cameras_seen: 0 };
+    let mut b = Builder {
+        path,
+        buffers: &buffers,
+        scene: Scene::new(name),
+        meshes: FxHashMap::default(),
+        materials: FxHashMap::default(),
+        warnings: Vec::new(),
+        lights_seen: 0,
+        cameras_seen: 0,
+    };
 
     let Some(root) = doc.default_scene().or_else(|| doc.scenes().next()) else {
         return Err(SceneError::invalid(file(), "the file has no scene"));
@@ -57,7 +66,11 @@ fn gltf_message(e: gltf::Error) -> String {
     match e {
         gltf::Error::Validation(list) => {
             let shown: Vec<String> = list.iter().take(5).map(|(path, err)| format!("{path}: {err}")).collect();
-            format!("invalid glTF: {}{}", shown.join("; "), if list.len() > 5 { format!(" (and {} more)", list.len() - 5) } else { String::new() })
+            format!(
+                "invalid glTF: {}{}",
+                shown.join("; "),
+                if list.len() > 5 { format!(" (and {} more)", list.len() - 5) } else { String::new() }
+            )
         }
         other => other.to_string(),
     }
@@ -102,7 +115,11 @@ impl Builder<'_> {
             for prim in mesh.primitives() {
                 let Some(mesh_id) = self.primitive(&mesh, &prim)? else { continue };
                 let material = self.material(prim.material())?;
-                let name = if mesh.primitives().len() > 1 { format!("{node_name}.{}", prim.index()) } else { node_name.clone() };
+                let name = if mesh.primitives().len() > 1 {
+                    format!("{node_name}.{}", prim.index())
+                } else {
+                    node_name.clone()
+                };
                 self.scene.add_instance(Instance::new(name, mesh_id, material, affine));
             }
         }
@@ -131,10 +148,19 @@ impl Builder<'_> {
         }
         let buffers = self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-        let bad = |what: &str| SceneError::invalid(self.at(format!("{here}.{what}")), "accessor data lies outside its buffer or is missing");
-        let positions: Vec<Vec3> = reader.read_positions().ok_or_else(|| bad("attributes.POSITION"))?.map(Vec3::from).collect();
+        let bad = |what: &str| {
+            SceneError::invalid(
+                self.at(format!("{here}.{what}")),
+                "accessor data lies outside its buffer or is missing",
+            )
+        };
+        let positions: Vec<Vec3> =
+            reader.read_positions().ok_or_else(|| bad("attributes.POSITION"))?.map(Vec3::from).collect();
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(SceneError::invalid(self.at(format!("{here}.attributes.POSITION[{i}]")), format!("position {} is not finite", positions[i])));
+            return Err(SceneError::invalid(
+                self.at(format!("{here}.attributes.POSITION[{i}]")),
+                format!("position {} is not finite", positions[i]),
+            ));
         }
         let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
         if let Some(n) = &normals {
@@ -142,14 +168,20 @@ impl Builder<'_> {
                 return Err(bad("attributes.NORMAL"));
             }
             if let Some(i) = n.iter().position(|v| !v.is_finite()) {
-                return Err(SceneError::invalid(self.at(format!("{here}.attributes.NORMAL[{i}]")), "normal is not finite"));
+                return Err(SceneError::invalid(
+                    self.at(format!("{here}.attributes.NORMAL[{i}]")),
+                    "normal is not finite",
+                ));
             }
         }
         let uvs: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
         if let Some(t) = &uvs
             && (t.len() != positions.len() || t.iter().any(|v| !v.is_finite()))
         {
-            return Err(SceneError::invalid(self.at(format!("{here}.attributes.TEXCOORD_0")), "texture coordinates are not finite or do not match the positions"));
+            return Err(SceneError::invalid(
+                self.at(format!("{here}.attributes.TEXCOORD_0")),
+                "texture coordinates are not finite or do not match the positions",
+            ));
         }
         let indices: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
@@ -157,11 +189,22 @@ impl Builder<'_> {
             None => (0..positions.len() as u32).collect(),
         };
         if let Some(&i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-            return Err(SceneError::invalid(self.at(format!("{here}.indices")), format!("index {i} out of range ({} vertices)", positions.len())));
+            return Err(SceneError::invalid(
+                self.at(format!("{here}.indices")),
+                format!("index {i} out of range ({} vertices)", positions.len()),
+            ));
         }
         let triangles: Vec<[u32; 3]> = match mode {
             Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-            Mode::TriangleStrip => (2..indices.len()).map(|k| if k % 2 == 0 { [indices[k - 2], indices[k - 1], indices[k]] } else { [indices[k - 1], indices[k - 2], indices[k]] }).collect(),
+            Mode::TriangleStrip => (2..indices.len())
+                .map(|k| {
+                    if k % 2 == 0 {
+                        [indices[k - 2], indices[k - 1], indices[k]]
+                    } else {
+                        [indices[k - 1], indices[k - 2], indices[k]]
+                    }
+                })
+                .collect(),
             Mode::TriangleFan => (2..indices.len()).map(|k| [indices[0], indices[k - 1], indices[k]]).collect(),
             _ => unreachable!("non-triangle modes returned above"),
         };
@@ -199,8 +242,14 @@ impl Builder<'_> {
                 }
             }
             gltf::image::Source::View { view, mime_type } => {
-                let data = self.buffers.get(view.buffer().index()).and_then(|d| d.0.get(view.offset()..view.offset() + view.length()));
-                TextureRef::Embedded { mime_type: mime_type.to_owned(), bytes: data.map(<[u8]>::to_vec).unwrap_or_default() }
+                let data = self
+                    .buffers
+                    .get(view.buffer().index())
+                    .and_then(|d| d.0.get(view.offset()..view.offset() + view.length()));
+                TextureRef::Embedded {
+                    mime_type: mime_type.to_owned(),
+                    bytes: data.map(<[u8]>::to_vec).unwrap_or_default(),
+                }
             }
         });
         let m = Material {
@@ -231,16 +280,23 @@ impl Builder<'_> {
         let kind = match light.kind() {
             Kind::Point => LightKind::Point { position, radius: 0.0 },
             Kind::Directional => LightKind::Directional { direction, angular_radius: 0.0 },
-            Kind::Spot { inner_cone_angle, outer_cone_angle } => {
-                LightKind::Spot { position, direction, inner_angle: inner_cone_angle, outer_angle: outer_cone_angle, radius: 0.0 }
-            }
+            Kind::Spot { inner_cone_angle, outer_cone_angle } => LightKind::Spot {
+                position,
+                direction,
+                inner_angle: inner_cone_angle,
+                outer_angle: outer_cone_angle,
+                radius: 0.0,
+            },
         };
         self.lights_seen += 1;
         let name = light.name().map(str::to_owned).unwrap_or_else(|| format!("{node_name}.light"));
         let mut l = Light::new(name, kind, Vec3::from(light.color()), light.intensity());
         l.range = light.range();
         if let Err(e) = l.check() {
-            return Err(SceneError::invalid(self.at(format!("extensions.KHR_lights_punctual.lights[{}]", light.index())), e));
+            return Err(SceneError::invalid(
+                self.at(format!("extensions.KHR_lights_punctual.lights[{}]", light.index())),
+                e,
+            ));
         }
         self.scene.add_light(l);
         Ok(())

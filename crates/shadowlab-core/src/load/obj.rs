@@ -113,9 +113,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
                 }
             }
             // Groups, objects, smoothing groups, lines, points and free-form geometry: not needed.
-            "g" | "o" | "s" | "l" | "p" | "vp" | "cstype" | "deg" | "curv" | "curv2" | "surf" | "parm"
-            | "trim" | "hole" | "end" | "bmat" | "step" | "mg" | "lod" | "usemap" | "maplib" | "shadow_obj"
-            | "trace_obj" | "ctech" | "stech" | "bevel" | "c_interp" | "d_interp" | "con" | "sp" | "call" => {}
+            "g" | "o" | "s" | "l" | "p" | "vp" | "cstype" | "deg" | "curv" | "curv2" | "surf" | "parm" | "trim"
+            | "hole" | "end" | "bmat" | "step" | "mg" | "lod" | "usemap" | "maplib" | "shadow_obj" | "trace_obj"
+            | "ctech" | "stech" | "bevel" | "c_interp" | "d_interp" | "con" | "sp" | "call" => {}
             other => {
                 if warnings.len() < 20 {
                     warnings.push(format!("{}: unknown statement '{other}' ignored", at()));
@@ -204,8 +204,16 @@ fn parse_f32(word: Option<&str>, at: impl Fn() -> Location, what: &str) -> Resul
     Ok(x)
 }
 
-fn parse_vec3<'a>(words: &mut impl Iterator<Item = &'a str>, at: impl Fn() -> Location + Copy, what: &str) -> Result<Vec3> {
-    Ok(Vec3::new(parse_f32(words.next(), at, what)?, parse_f32(words.next(), at, what)?, parse_f32(words.next(), at, what)?))
+fn parse_vec3<'a>(
+    words: &mut impl Iterator<Item = &'a str>,
+    at: impl Fn() -> Location + Copy,
+    what: &str,
+) -> Result<Vec3> {
+    Ok(Vec3::new(
+        parse_f32(words.next(), at, what)?,
+        parse_f32(words.next(), at, what)?,
+        parse_f32(words.next(), at, what)?,
+    ))
 }
 
 fn parse_index(text: &str, at: impl Fn() -> Location) -> Result<i64> {
@@ -276,7 +284,8 @@ fn build_mesh<'a>(
                 next
             }));
         }
-        triangulate(&polygon, &positions, &mut triangles).map_err(|msg| SceneError::invalid(Location::line(path, face.line), msg))?;
+        triangulate(&polygon, &positions, &mut triangles)
+            .map_err(|msg| SceneError::invalid(Location::line(path, face.line), msg))?;
     }
     let uvs = any_uvs.then_some(uvs);
     let mut mesh = if all_normals {
@@ -328,7 +337,9 @@ fn triangulate(poly: &[u32], positions: &[Vec3], out: &mut Vec<[u32; 3]>) -> Res
             remaining.iter().all(|&j| {
                 j == a || j == b || j == c || {
                     let p = flat[j];
-                    !(cross(flat[a], flat[b], p) >= 0.0 && cross(flat[b], flat[c], p) >= 0.0 && cross(flat[c], flat[a], p) >= 0.0)
+                    !(cross(flat[a], flat[b], p) >= 0.0
+                        && cross(flat[b], flat[c], p) >= 0.0
+                        && cross(flat[c], flat[a], p) >= 0.0)
                 }
             })
         });
@@ -460,12 +471,18 @@ mod tests {
     #[test]
     fn mtl_colours() {
         let mut w = Vec::new();
-        let mats = parse_mtl(b"newmtl a\nKd 0.5 0.25 1.5\nNs 10\nKs 0.2 0.3 0.1\n", Path::new("m.mtl"), &mut w).unwrap();
+        let mats =
+            parse_mtl(b"newmtl a\nKd 0.5 0.25 1.5\nNs 10\nKs 0.2 0.3 0.1\n", Path::new("m.mtl"), &mut w).unwrap();
         assert_eq!(mats[0].base_color, Vec3::new(0.5, 0.25, 1.0));
         assert_eq!(mats[0].shininess, 10.0);
         assert_eq!(mats[0].specular, 0.3);
         assert_eq!(w.len(), 1, "clamping warned");
-        assert!(parse_mtl(b"newmtl a\nKd 0.5 x 1\n", Path::new("m.mtl"), &mut w).unwrap_err().to_string().contains("line 2"));
+        assert!(
+            parse_mtl(b"newmtl a\nKd 0.5 x 1\n", Path::new("m.mtl"), &mut w)
+                .unwrap_err()
+                .to_string()
+                .contains("line 2")
+        );
     }
 
     #[test]

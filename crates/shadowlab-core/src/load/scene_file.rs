@@ -160,7 +160,8 @@ impl Context<'_> {
 
     fn build(&mut self, file: File) -> Result<Scene> {
         let mut scene = match &file.base {
-            Some(base) => crate::scenes::build(base).map_err(|e| SceneError::invalid(Location::path("base").in_file(self.path), e.to_string()))?,
+            Some(base) => crate::scenes::build(base)
+                .map_err(|e| SceneError::invalid(Location::path("base").in_file(self.path), e.to_string()))?,
             None => Scene::new(""),
         };
         scene.name = file
@@ -223,7 +224,13 @@ impl Context<'_> {
         Ok(scene)
     }
 
-    fn object(&mut self, scene: &mut Scene, materials: &HashMap<String, MaterialId>, i: usize, def: &Spanned<ObjectDef>) -> Result<()> {
+    fn object(
+        &mut self,
+        scene: &mut Scene,
+        materials: &HashMap<String, MaterialId>,
+        i: usize,
+        def: &Spanned<ObjectDef>,
+    ) -> Result<()> {
         let d = def.get_ref();
         let name = d.name.clone().unwrap_or_else(|| format!("object{i}"));
         let at = self.at(def.span(), format!("object[{i}] '{name}'"));
@@ -240,7 +247,9 @@ impl Context<'_> {
             Some(r) => Some(Role::parse(r).ok_or_else(|| invalid(format!("role '{r}' must be receiver or occluder")))?),
         };
         let material = match &d.material {
-            Some(m) => Some(*materials.get(m).ok_or_else(|| invalid(format!("material '{m}' is not defined in this file")))?),
+            Some(m) => {
+                Some(*materials.get(m).ok_or_else(|| invalid(format!("material '{m}' is not defined in this file")))?)
+            }
             None => None,
         };
         let place = |mut inst: Instance| {
@@ -267,9 +276,12 @@ impl Context<'_> {
                     Some(s) => s.clone(),
                     None => {
                         if full.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
-                            return Err(invalid("a scene file cannot place another scene file (use 'base' for a built-in scene)".into()));
+                            return Err(invalid(
+                                "a scene file cannot place another scene file (use 'base' for a built-in scene)".into(),
+                            ));
                         }
-                        let loaded = super::load_file(&full).map_err(|e| SceneError::invalid(at.clone(), format!("in '{file}': {e}")))?;
+                        let loaded = super::load_file(&full)
+                            .map_err(|e| SceneError::invalid(at.clone(), format!("in '{file}': {e}")))?;
                         self.warnings.extend(loaded.warnings);
                         self.file_cache.insert(full.clone(), loaded.scene.clone());
                         loaded.scene
@@ -298,13 +310,19 @@ fn object_transform(d: &ObjectDef) -> Result<Affine3A, String> {
     if !s.is_finite() || s.abs().min_element() < 1e-9 {
         return Err(format!("scale {s} must be finite and non-zero"));
     }
-    let q = Quat::from_rotation_z(r.z.to_radians()) * Quat::from_rotation_y(r.y.to_radians()) * Quat::from_rotation_x(r.x.to_radians());
+    let q = Quat::from_rotation_z(r.z.to_radians())
+        * Quat::from_rotation_y(r.y.to_radians())
+        * Quat::from_rotation_x(r.x.to_radians());
     Ok(Affine3A::from_scale_rotation_translation(s, q, t))
 }
 
 fn primitive(p: &PrimitiveDef) -> Result<crate::mesh::Mesh, String> {
     let positive = |what: &str, v: f32| {
-        if v.is_finite() && v > 0.0 && v < 1.0e7 { Ok(v) } else { Err(format!("primitive {what} {v} must be in (0, 1e7)")) }
+        if v.is_finite() && v > 0.0 && v < 1.0e7 {
+            Ok(v)
+        } else {
+            Err(format!("primitive {what} {v} must be in (0, 1e7)"))
+        }
     };
     let segments = |s: Option<u32>, default: u32| -> Result<u32, String> {
         match s.unwrap_or(default) {
@@ -313,9 +331,11 @@ fn primitive(p: &PrimitiveDef) -> Result<crate::mesh::Mesh, String> {
         }
     };
     Ok(match *p {
-        PrimitiveDef::Box { size } => {
-            primitives::cuboid(Vec3::new(positive("size x", size[0])?, positive("size y", size[1])?, positive("size z", size[2])?))
-        }
+        PrimitiveDef::Box { size } => primitives::cuboid(Vec3::new(
+            positive("size x", size[0])?,
+            positive("size y", size[1])?,
+            positive("size z", size[2])?,
+        )),
         PrimitiveDef::Plane { size, subdivisions } => {
             let n = subdivisions.unwrap_or(1);
             if !(1..=1024).contains(&n) {
@@ -345,7 +365,9 @@ fn primitive(p: &PrimitiveDef) -> Result<crate::mesh::Mesh, String> {
 }
 
 fn light(d: &LightDef, name: String) -> Result<Light, String> {
-    let need = |v: Option<[f32; 3]>, what: &str| v.ok_or_else(|| format!("{} light needs '{what}'", d.kind)).and_then(|v| finite3(v, what));
+    let need = |v: Option<[f32; 3]>, what: &str| {
+        v.ok_or_else(|| format!("{} light needs '{what}'", d.kind)).and_then(|v| finite3(v, what))
+    };
     let position = || need(d.position, "position");
     let direction = || -> Result<Vec3, String> {
         let dir = match (d.direction, d.target) {
@@ -369,7 +391,10 @@ fn light(d: &LightDef, name: String) -> Result<Light, String> {
             outer_angle: d.outer_angle.unwrap_or(45.0).to_radians(),
             radius,
         },
-        "directional" => LightKind::Directional { direction: direction()?, angular_radius: d.angular_radius.unwrap_or(0.0).to_radians() },
+        "directional" => LightKind::Directional {
+            direction: direction()?,
+            angular_radius: d.angular_radius.unwrap_or(0.0).to_radians(),
+        },
         "rect" => {
             let direction = direction()?;
             let size = Vec2::from(d.size.ok_or("rect light needs 'size' = [width, height]")?);
@@ -454,7 +479,9 @@ fn transform_light(kind: LightKind, t: &Affine3A) -> LightKind {
         LightKind::Spot { position, direction, inner_angle, outer_angle, radius } => {
             LightKind::Spot { position: p(position), direction: d(direction), inner_angle, outer_angle, radius }
         }
-        LightKind::Directional { direction, angular_radius } => LightKind::Directional { direction: d(direction), angular_radius },
+        LightKind::Directional { direction, angular_radius } => {
+            LightKind::Directional { direction: d(direction), angular_radius }
+        }
         LightKind::Rect { position, direction, tangent, width, height } => {
             LightKind::Rect { position: p(position), direction: d(direction), tangent: d(tangent), width, height }
         }
@@ -521,9 +548,14 @@ target = [0, 0, 0]
 
     #[test]
     fn errors_say_where() {
-        let e = parse_str("[[object]]\nname = \"a\"\nprimitive = { type = \"box\", size = [1, 1, 1] }\nmaterial = \"nope\"\n").unwrap_err();
+        let e = parse_str(
+            "[[object]]\nname = \"a\"\nprimitive = { type = \"box\", size = [1, 1, 1] }\nmaterial = \"nope\"\n",
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("scene.toml:line 1") && e.to_string().contains("'nope'"), "{e}");
-        let e = parse_str("[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nouter_angle = 120\n").unwrap_err();
+        let e =
+            parse_str("[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nouter_angle = 120\n")
+                .unwrap_err();
         assert!(e.to_string().contains("outer cone") && e.to_string().contains("light[0]"), "{e}");
         let e = parse_str("[[light]]\ntype = \"point\"\nposition = [0, nan, 0]\n").unwrap_err();
         assert!(e.to_string().contains("not finite"), "{e}");
@@ -539,7 +571,9 @@ target = [0, 0, 0]
 
     #[test]
     fn base_scene_is_extended() {
-        let l = parse_str("base = \"penumbra\"\n[[view]]\nname = \"extra\"\nposition = [3, 3, 3]\ntarget = [0, 0, 0]\n").unwrap();
+        let l =
+            parse_str("base = \"penumbra\"\n[[view]]\nname = \"extra\"\nposition = [3, 3, 3]\ntarget = [0, 0, 0]\n")
+                .unwrap();
         assert!(l.scene.view("extra").is_some());
         assert!(l.scene.instances.len() >= 2);
     }

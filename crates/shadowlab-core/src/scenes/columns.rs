@@ -18,13 +18,8 @@ use crate::scene::{Role, Scene};
 
 pub const SUMMARY: &str = "three 8 m rooms with pillars and doorways, four point lights, dynamic spheres and door";
 
-pub static OPTIONS: &[ParamDef] = &[ParamDef::float(
-    "door_angle",
-    35.0,
-    0.0,
-    100.0,
-    "how far the dynamic door is open (degrees)",
-)];
+pub static OPTIONS: &[ParamDef] =
+    &[ParamDef::float("door_angle", 35.0, 0.0, 100.0, "how far the dynamic door is open (degrees)")];
 
 const HALF_X: f32 = 12.0;
 const HALF_Z: f32 = 4.0;
@@ -46,8 +41,13 @@ pub fn build(options: &ParamSet) -> Scene {
     let (ox, oz) = (HALF_X + WALL, HALF_Z + WALL);
     b.object("floor", cuboid_between(Vec3::new(-ox, -WALL, -oz), Vec3::new(ox, 0.0, oz)), stone, Affine3A::IDENTITY)
         .with_role(Role::Receiver);
-    b.object("ceiling", cuboid_between(Vec3::new(-ox, HEIGHT, -oz), Vec3::new(ox, HEIGHT + WALL, oz)), ceiling, Affine3A::IDENTITY)
-        .with_role(Role::Receiver);
+    b.object(
+        "ceiling",
+        cuboid_between(Vec3::new(-ox, HEIGHT, -oz), Vec3::new(ox, HEIGHT + WALL, oz)),
+        ceiling,
+        Affine3A::IDENTITY,
+    )
+    .with_role(Role::Receiver);
     let (y0, y1) = (-0.5 * WALL, HEIGHT + 0.5 * WALL);
     let outer = combine([
         (cuboid_between(Vec3::new(-ox, y0, -oz), Vec3::new(-HALF_X, y1, oz)), Affine3A::IDENTITY),
@@ -67,7 +67,8 @@ pub fn build(options: &ParamSet) -> Scene {
         // The hole starts 5 cm under the floor so its sill face hides in the floor slab.
         let hole = (Vec2::new(z0 + 0.5 * wall_len, -0.05 - wy0), Vec2::new(z1 + 0.5 * wall_len, DOOR_HEIGHT - wy0));
         let slab = slab_with_hole(wall_len, wy1 - wy0, WALL, hole.0, hole.1);
-        inner.append(&slab, &Affine3A::from_rotation_translation(turn, Vec3::new(x + 0.5 * WALL, wy0, -0.5 * wall_len)));
+        inner
+            .append(&slab, &Affine3A::from_rotation_translation(turn, Vec3::new(x + 0.5 * WALL, wy0, -0.5 * wall_len)));
     }
     b.object("inner walls", inner, plaster, Affine3A::IDENTITY).with_role(Role::Receiver);
 
@@ -104,7 +105,9 @@ pub fn build(options: &ParamSet) -> Scene {
     // ceiling slabs so no light passes at their ends.
     let round = cylinder(0.3, HEIGHT + 0.1, 48);
     let mut pillars = Vec::new();
-    for (x, z) in [(-10.0, -2.0), (-10.0, 2.0), (-6.0, -2.0), (-6.0, 2.0), (6.0, -2.2), (6.0, 2.2), (10.0, -2.2), (10.0, 2.2)] {
+    for (x, z) in
+        [(-10.0, -2.0), (-10.0, 2.0), (-6.0, -2.0), (-6.0, 2.0), (6.0, -2.2), (6.0, 2.2), (10.0, -2.2), (10.0, 2.2)]
+    {
         pillars.push((round.clone(), at(x, -0.05, z)));
     }
     for (x, z) in [(-1.5, -2.0), (1.5, 2.2)] {
@@ -117,8 +120,14 @@ pub fn build(options: &ParamSet) -> Scene {
         "crates",
         combine([
             (cuboid(Vec3::new(0.8, 0.8, 0.8)), at(-2.6, 0.4, 2.6)),
-            (cuboid(Vec3::new(0.6, 0.6, 0.6)), Affine3A::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(-2.5, 1.105, 2.55))),
-            (cuboid(Vec3::new(1.2, 0.5, 0.7)), Affine3A::from_rotation_translation(Quat::from_rotation_y(-0.3), Vec3::new(2.4, 0.25, -2.6))),
+            (
+                cuboid(Vec3::new(0.6, 0.6, 0.6)),
+                Affine3A::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(-2.5, 1.105, 2.55)),
+            ),
+            (
+                cuboid(Vec3::new(1.2, 0.5, 0.7)),
+                Affine3A::from_rotation_translation(Quat::from_rotation_y(-0.3), Vec3::new(2.4, 0.25, -2.6)),
+            ),
         ]),
         crate_mat,
         Affine3A::IDENTITY,
@@ -142,7 +151,9 @@ pub fn build(options: &ParamSet) -> Scene {
     .into_iter()
     .enumerate()
     {
-        scene.add_light(Light::new(format!("lamp {i}"), LightKind::Point { position: p, radius: 0.1 }, c, 14.0).with_range(16.0));
+        scene.add_light(
+            Light::new(format!("lamp {i}"), LightKind::Point { position: p, radius: 0.1 }, c, 14.0).with_range(16.0),
+        );
     }
     scene.views = vec![
         View::new("hall", Vec3::new(-11.4, 1.7, -3.3), Vec3::new(2.0, 1.0, 1.6), 0.05, 60.0).with_fov_degrees(70.0),
@@ -161,8 +172,12 @@ mod tests {
         let s = build(&ParamSet::new(OPTIONS));
         assert_eq!(s.lights.len(), 4);
         assert!(s.lights.iter().all(|l| matches!(l.kind, LightKind::Point { radius, .. } if radius == 0.1)));
-        let dynamic: Vec<&str> =
-            s.instances.iter().filter(|i| i.mobility == crate::scene::Mobility::Dynamic).map(|i| i.name.as_str()).collect();
+        let dynamic: Vec<&str> = s
+            .instances
+            .iter()
+            .filter(|i| i.mobility == crate::scene::Mobility::Dynamic)
+            .map(|i| i.name.as_str())
+            .collect();
         assert_eq!(dynamic, ["door", "ball west", "ball east"]);
         let b = s.bounds();
         assert!((b.extent().x - 24.4).abs() < 0.01 && (b.extent().z - 8.4).abs() < 0.01, "{b:?}");

@@ -38,12 +38,7 @@ impl BuiltinScene {
 
 static BUILTIN: &[BuiltinScene] = &[
     BuiltinScene { name: "room", summary: room::SUMMARY, options: room::OPTIONS, build: room::build },
-    BuiltinScene {
-        name: "penumbra",
-        summary: penumbra::SUMMARY,
-        options: penumbra::OPTIONS,
-        build: penumbra::build,
-    },
+    BuiltinScene { name: "penumbra", summary: penumbra::SUMMARY, options: penumbra::OPTIONS, build: penumbra::build },
     BuiltinScene { name: "columns", summary: columns::SUMMARY, options: columns::OPTIONS, build: columns::build },
     BuiltinScene { name: "terrain", summary: terrain::SUMMARY, options: terrain::OPTIONS, build: terrain::build },
 ];

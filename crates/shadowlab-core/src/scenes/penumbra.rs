@@ -85,8 +85,13 @@ pub fn build(options: &ParamSet) -> Scene {
     let dark = b.material(Material::diffuse("occluder", Vec3::new(0.6, 0.25, 0.2)));
     b.object("ground", primitives::plane(setup.ground_size, setup.ground_size, 1, 1), grey, at(0.0, 0.0, 0.0))
         .with_role(Role::Receiver);
-    b.object("occluder", primitives::card(setup.occluder_size, setup.occluder_size), dark, at(0.0, setup.occluder_height, 0.0))
-        .with_role(Role::Occluder);
+    b.object(
+        "occluder",
+        primitives::card(setup.occluder_size, setup.occluder_size),
+        dark,
+        at(0.0, setup.occluder_height, 0.0),
+    )
+    .with_role(Role::Occluder);
     let mut scene = b.finish();
     scene.add_light(Light::new(
         "panel",

@@ -43,7 +43,8 @@ pub fn build(_options: &ParamSet) -> Scene {
     scene.ambient = Vec3::splat(0.04);
     lights(&mut scene);
     scene.views = vec![
-        View::new("default", Vec3::new(-2.2, 1.75, 1.75), Vec3::new(0.3, 0.45, -0.4), 0.05, 20.0).with_fov_degrees(68.0),
+        View::new("default", Vec3::new(-2.2, 1.75, 1.75), Vec3::new(0.3, 0.45, -0.4), 0.05, 20.0)
+            .with_fov_degrees(68.0),
         View::new(
             "table",
             TABLE_CENTRE + Vec3::new(0.55, TABLE_TOP + 0.3, 0.5),
@@ -66,16 +67,26 @@ fn shell(b: &mut Builder) {
     let (ox, oz) = (HALF_X + WALL, HALF_Z + WALL);
     b.object("floor", cuboid_between(Vec3::new(-ox, -WALL, -oz), Vec3::new(ox, 0.0, oz)), floor, Affine3A::IDENTITY)
         .with_role(Role::Receiver);
-    b.object("ceiling", cuboid_between(Vec3::new(-ox, HEIGHT, -oz), Vec3::new(ox, HEIGHT + WALL, oz)), ceiling, Affine3A::IDENTITY)
-        .with_role(Role::Receiver);
+    b.object(
+        "ceiling",
+        cuboid_between(Vec3::new(-ox, HEIGHT, -oz), Vec3::new(ox, HEIGHT + WALL, oz)),
+        ceiling,
+        Affine3A::IDENTITY,
+    )
+    .with_role(Role::Receiver);
     // Walls reach a little into floor and ceiling so that no light leaks along the joints; they
     // overlap rather than share corners, which keeps every mesh 2-manifold.
     let (y0, y1) = (-0.5 * WALL, HEIGHT + 0.5 * WALL);
     let west = cuboid_between(Vec3::new(-ox, y0, -oz), Vec3::new(-HALF_X, y1, oz));
     let north = cuboid_between(Vec3::new(-ox + 0.01, y0, -oz), Vec3::new(ox - 0.01, y1, -HALF_Z));
     let south = cuboid_between(Vec3::new(-ox + 0.01, y0, HALF_Z), Vec3::new(ox - 0.01, y1, oz));
-    b.object("walls", combine([(west, Affine3A::IDENTITY), (north, Affine3A::IDENTITY), (south, Affine3A::IDENTITY)]), walls, Affine3A::IDENTITY)
-        .with_role(Role::Receiver);
+    b.object(
+        "walls",
+        combine([(west, Affine3A::IDENTITY), (north, Affine3A::IDENTITY), (south, Affine3A::IDENTITY)]),
+        walls,
+        Affine3A::IDENTITY,
+    )
+    .with_role(Role::Receiver);
     // East wall: a slab with a hole, built in its own frame (width along x, thickness along z) and
     // turned +90° about y, which sends local x to world −z and local z to world +x.
     let width = 2.0 * oz;
@@ -86,14 +97,29 @@ fn shell(b: &mut Builder) {
         Vec2::new(WINDOW_Z.0 + oz, WINDOW_Y.0 - y0),
         Vec2::new(WINDOW_Z.1 + oz, WINDOW_Y.1 - y0),
     );
-    let turn = Affine3A::from_rotation_translation(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2), Vec3::new(HALF_X, y0, oz));
-    b.object("east wall", { let mut m = Mesh::new("east wall"); m.append(&slab, &turn); m }, walls, Affine3A::IDENTITY)
-        .with_role(Role::Receiver);
+    let turn = Affine3A::from_rotation_translation(
+        Quat::from_rotation_y(std::f32::consts::FRAC_PI_2),
+        Vec3::new(HALF_X, y0, oz),
+    );
+    b.object(
+        "east wall",
+        {
+            let mut m = Mesh::new("east wall");
+            m.append(&slab, &turn);
+            m
+        },
+        walls,
+        Affine3A::IDENTITY,
+    )
+    .with_role(Role::Receiver);
     // A sill under the window, protruding into the room: a ledge the sun shines over.
     let sill = b.material(Material::diffuse("sill", Vec3::splat(0.9)).with_specular(0.3, 60.0));
     b.object(
         "sill",
-        cuboid_between(Vec3::new(HALF_X - 0.08, WINDOW_Y.0 - 0.03, WINDOW_Z.0 - 0.05), Vec3::new(HALF_X + 0.02, WINDOW_Y.0 + 0.005, WINDOW_Z.1 + 0.05)),
+        cuboid_between(
+            Vec3::new(HALF_X - 0.08, WINDOW_Y.0 - 0.03, WINDOW_Z.0 - 0.05),
+            Vec3::new(HALF_X + 0.02, WINDOW_Y.0 + 0.005, WINDOW_Z.1 + 0.05),
+        ),
         sill,
         Affine3A::IDENTITY,
     );
@@ -124,7 +150,10 @@ fn table_and_chairs(b: &mut Builder) {
     }
     // The dynamic chair stands at the east end, pulled out and turned, its slatted back to the
     // window: the sun draws the slats on the floor.
-    let t = Affine3A::from_rotation_translation(Quat::from_rotation_y(f32::to_radians(-75.0)), Vec3::new(c.x + 1.05, 0.0, c.z + 0.1));
+    let t = Affine3A::from_rotation_translation(
+        Quat::from_rotation_y(f32::to_radians(-75.0)),
+        Vec3::new(c.x + 1.05, 0.0, c.z + 0.1),
+    );
     let mesh = b.scene.add_mesh(Mesh { name: "chair east".to_owned(), ..chair });
     b.scene.add_instance(Instance::new("chair east", mesh, chair_wood, t)).with_role(Role::Occluder).dynamic();
 }
@@ -169,8 +198,21 @@ fn cup(b: &mut Builder) {
     );
     // Torus around +Y turned to stand in the x-y plane, centred on the wall at +x.
     let handle = torus(0.024, 0.0055, 48, 16);
-    let handle_t = Affine3A::from_rotation_translation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2), Vec3::new(r + 0.012, 0.5 * h, 0.0));
-    let saucer = lathe(&[Vec2::new(0.0, 0.0), Vec2::new(0.05, 0.0), Vec2::new(0.075, 0.012), Vec2::new(0.07, 0.014), Vec2::new(0.0, 0.006)], false, 64);
+    let handle_t = Affine3A::from_rotation_translation(
+        Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+        Vec3::new(r + 0.012, 0.5 * h, 0.0),
+    );
+    let saucer = lathe(
+        &[
+            Vec2::new(0.0, 0.0),
+            Vec2::new(0.05, 0.0),
+            Vec2::new(0.075, 0.012),
+            Vec2::new(0.07, 0.014),
+            Vec2::new(0.0, 0.006),
+        ],
+        false,
+        64,
+    );
     let place = TABLE_CENTRE + Vec3::new(0.25, TABLE_TOP, 0.05);
     let rot = Quat::from_rotation_y(f32::to_radians(-30.0));
     b.object("saucer", saucer, porcelain, Affine3A::from_rotation_translation(rot, place)).with_role(Role::Occluder);
@@ -184,7 +226,14 @@ fn cup(b: &mut Builder) {
     // A bowl of fruit at the other end: smooth round shapes for smooth shadows.
     let bowl_mat = b.material(Material::diffuse("ceramic", Vec3::new(0.25, 0.42, 0.55)).with_specular(0.4, 80.0));
     let bowl = lathe(
-        &[Vec2::new(0.0, 0.0), Vec2::new(0.06, 0.0), Vec2::new(0.13, 0.07), Vec2::new(0.124, 0.072), Vec2::new(0.056, 0.008), Vec2::new(0.0, 0.008)],
+        &[
+            Vec2::new(0.0, 0.0),
+            Vec2::new(0.06, 0.0),
+            Vec2::new(0.13, 0.07),
+            Vec2::new(0.124, 0.072),
+            Vec2::new(0.056, 0.008),
+            Vec2::new(0.0, 0.008),
+        ],
         false,
         64,
     );
@@ -211,13 +260,17 @@ fn shelf(b: &mut Builder) {
     ];
     let levels = [0.05, 0.5, 0.95, 1.4, 1.88];
     for &y in &levels {
-        parts.push((cuboid_between(Vec3::new(0.015, y - 0.02, 0.008), Vec3::new(w - 0.015, y, d - 0.005)), Affine3A::IDENTITY));
+        parts.push((
+            cuboid_between(Vec3::new(0.015, y - 0.02, 0.008), Vec3::new(w - 0.015, y, d - 0.005)),
+            Affine3A::IDENTITY,
+        ));
     }
     let origin = Affine3A::from_translation(Vec3::new(x0, 0.0, z0));
     b.object("bookcase", combine(parts), board, origin).with_role(Role::Occluder);
 
     // Books in four colours, deterministic sizes; one leans on its neighbour.
-    let colours = [Vec3::new(0.55, 0.1, 0.1), Vec3::new(0.1, 0.25, 0.45), Vec3::new(0.15, 0.4, 0.2), Vec3::new(0.75, 0.6, 0.25)];
+    let colours =
+        [Vec3::new(0.55, 0.1, 0.1), Vec3::new(0.1, 0.25, 0.45), Vec3::new(0.15, 0.4, 0.2), Vec3::new(0.75, 0.6, 0.25)];
     let mut per_colour: Vec<Vec<(Mesh, Affine3A)>> = vec![Vec::new(); colours.len()];
     let mut rng = Rng::new(0x5EED_B00C);
     for (row, &y) in levels[..3].iter().enumerate() {
@@ -228,8 +281,11 @@ fn shelf(b: &mut Builder) {
             let tall = rng.range(0.2, 0.3);
             let deep = rng.range(0.15, 0.22);
             let lean = if k == 6 { 0.28f32 } else { 0.0 };
-            let t = Affine3A::from_translation(Vec3::new(x + 0.5 * thick + lean * 0.5 * tall, y + 0.001, 0.03 + 0.5 * deep))
-                * Affine3A::from_rotation_z(-lean)
+            let t = Affine3A::from_translation(Vec3::new(
+                x + 0.5 * thick + lean * 0.5 * tall,
+                y + 0.001,
+                0.03 + 0.5 * deep,
+            )) * Affine3A::from_rotation_z(-lean)
                 * Affine3A::from_translation(Vec3::new(0.0, 0.5 * tall, 0.0));
             per_colour[(k * 7 + row * 3) % colours.len()].push((cuboid(Vec3::new(thick, tall, deep)), t));
             x += thick + if lean > 0.0 { 0.5 * tall * lean.sin() + 0.01 } else { 0.002 };
@@ -281,7 +337,14 @@ fn lamps(b: &mut Builder) {
     );
     // Reading lamp: a base, a pole, an arm and a shade opening downwards above the emitter.
     let shade = lathe(
-        &[Vec2::new(0.0, 0.16), Vec2::new(0.05, 0.16), Vec2::new(0.13, 0.0), Vec2::new(0.122, 0.0), Vec2::new(0.044, 0.152), Vec2::new(0.0, 0.152)],
+        &[
+            Vec2::new(0.0, 0.16),
+            Vec2::new(0.05, 0.16),
+            Vec2::new(0.13, 0.0),
+            Vec2::new(0.122, 0.0),
+            Vec2::new(0.044, 0.152),
+            Vec2::new(0.0, 0.152),
+        ],
         false,
         48,
     );
@@ -310,8 +373,13 @@ const ACCENT_LAMP: Vec3 = Vec3::new(1.85, 0.62, -HALF_Z + 0.22);
 
 fn lights(scene: &mut Scene) {
     scene.add_light(
-        Light::new("ceiling lamp", LightKind::Point { position: CEILING_LAMP, radius: 0.1 }, Vec3::new(1.0, 0.82, 0.6), 6.0)
-            .with_range(12.0),
+        Light::new(
+            "ceiling lamp",
+            LightKind::Point { position: CEILING_LAMP, radius: 0.1 },
+            Vec3::new(1.0, 0.82, 0.6),
+            6.0,
+        )
+        .with_range(12.0),
     );
     scene.add_light(
         Light::new(
@@ -330,12 +398,16 @@ fn lights(scene: &mut Scene) {
     );
     // A small blue accent light on the bookcase's middle shelf, between the books.
     scene.add_light(
-        Light::new("accent", LightKind::Point { position: ACCENT_LAMP, radius: 0.02 }, Vec3::new(0.35, 0.55, 1.0), 0.6).with_range(4.0),
+        Light::new("accent", LightKind::Point { position: ACCENT_LAMP, radius: 0.02 }, Vec3::new(0.35, 0.55, 1.0), 0.6)
+            .with_range(4.0),
     );
     // The sun comes in through the east window from the east, down at about 40°.
     scene.add_light(Light::new(
         "sun",
-        LightKind::Directional { direction: Vec3::new(-0.72, -0.62, 0.3).normalize(), angular_radius: 0.27f32.to_radians() },
+        LightKind::Directional {
+            direction: Vec3::new(-0.72, -0.62, 0.3).normalize(),
+            angular_radius: 0.27f32.to_radians(),
+        },
         Vec3::new(1.0, 0.95, 0.85),
         4.0,
     ));

@@ -87,7 +87,10 @@ fn value_noise(x: f32, z: f32, octave: u32) -> f32 {
     let (fx, fz) = (x - xi, z - zi);
     let fade = |t: f32| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
     let lattice = |a: f32, b: f32| {
-        let mut r = Rng::for_stream(u64::from(octave) + 0x007E_44A1, ((a as i64 as u64) << 32) ^ (b as i64 as u64 & 0xFFFF_FFFF));
+        let mut r = Rng::for_stream(
+            u64::from(octave) + 0x007E_44A1,
+            ((a as i64 as u64) << 32) ^ (b as i64 as u64 & 0xFFFF_FFFF),
+        );
         r.next_f32()
     };
     let (u, v) = (fade(fx), fade(fz));
@@ -118,7 +121,8 @@ pub fn build(options: &ParamSet) -> Scene {
     b.object("terrain", terrain, grass, Affine3A::IDENTITY).with_role(Role::Receiver);
 
     // Cabins: walls sunk 1 m into the ground (slopes), a gable roof overlapping the walls' top.
-    let walls = b.scene.add_mesh(named(cuboid_between(Vec3::new(-3.0, -1.0, -2.25), Vec3::new(3.0, 3.0, 2.25)), "cabin walls"));
+    let walls =
+        b.scene.add_mesh(named(cuboid_between(Vec3::new(-3.0, -1.0, -2.25), Vec3::new(3.0, 3.0, 2.25)), "cabin walls"));
     let roof_mesh = b.scene.add_mesh(named(
         {
             let mut m = crate::mesh::Mesh::new("roof");
@@ -147,7 +151,10 @@ pub fn build(options: &ParamSet) -> Scene {
         cabins.push(p);
     }
     for (i, p) in cabins.iter().enumerate() {
-        let t = Affine3A::from_rotation_translation(Quat::from_rotation_y(rng.range(0.0, std::f32::consts::TAU)), Vec3::new(p.x, ground.height(p.x, p.y), p.y));
+        let t = Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(rng.range(0.0, std::f32::consts::TAU)),
+            Vec3::new(p.x, ground.height(p.x, p.y), p.y),
+        );
         instance(&mut b.scene, &format!("cabin {i}"), walls, timber, t);
         instance(&mut b.scene, &format!("cabin {i} roof"), roof_mesh, roof, t);
     }
@@ -226,7 +233,9 @@ pub fn build(options: &ParamSet) -> Scene {
     let duel_to = Vec3::new(duel_to_xz.x, ground.height(duel_to_xz.x, duel_to_xz.y) + 10.0, duel_to_xz.y);
     scene.views = vec![
         View::new("ground", ground_from, ground_to, 0.5, 1000.0).with_fov_degrees(60.0),
-        View::new("overhead", Vec3::new(0.0, 700.0, 0.0), Vec3::ZERO, 1.0, 2000.0).with_fov_degrees(60.0).with_up(-Vec3::Z),
+        View::new("overhead", Vec3::new(0.0, 700.0, 0.0), Vec3::ZERO, 1.0, 2000.0)
+            .with_fov_degrees(60.0)
+            .with_up(-Vec3::Z),
         View::new("duel", duel_from, duel_to, 0.5, 1000.0).with_fov_degrees(60.0),
     ];
     scene

@@ -117,3 +117,57 @@ mod tests {
         assert_eq!(slug("///"), "unnamed");
     }
 }
+
+/// Opens the GPU chosen by `--backend` and says which adapter it is.
+pub fn open_gpu(global: &GlobalArgs) -> Result<shadowlab::Gpu> {
+    let choice = shadowlab::BackendChoice::parse(&global.backend).context("--backend must be auto, vulkan or gl")?;
+    let gpu = shadowlab::Gpu::new(choice)?;
+    eprintln!("adapter: {}", gpu.adapter);
+    Ok(gpu)
+}
+
+/// Technique selection shared by render, compare and bench.
+#[derive(clap::Args, Debug, Clone)]
+pub struct TechniqueArgs {
+    /// Techniques with default parameters, comma-separated (`hard,pcf,sampled`).
+    #[arg(long, value_delimiter = ',', conflicts_with = "technique")]
+    pub techniques: Vec<String>,
+    /// A technique with parameters, `ID` or `ID:K=V,K=V`; repeat to compare configurations.
+    #[arg(long)]
+    pub technique: Vec<String>,
+    /// Set a parameter on every technique that has it (`--set map_size=1024`).
+    #[arg(long = "set", value_name = "K=V")]
+    pub set: Vec<String>,
+}
+
+impl TechniqueArgs {
+    /// The specs given, or `default` when none was.
+    pub fn specs(&self, default: &[&str]) -> Result<Vec<shadowlab::TechniqueSpec>> {
+        let given: Vec<String> = if !self.technique.is_empty() {
+            self.technique.clone()
+        } else if !self.techniques.is_empty() {
+            self.techniques.iter().map(|t| t.trim().to_owned()).filter(|t| !t.is_empty()).collect()
+        } else {
+            default.iter().map(|s| (*s).to_owned()).collect()
+        };
+        let specs =
+            given.iter().map(|s| shadowlab::TechniqueSpec::parse(s, &self.set)).collect::<Result<Vec<_>, _>>()?;
+        shadowlab::technique::check_global_sets(&specs, &self.set)?;
+        Ok(specs)
+    }
+}
+
+/// A renderer for `setup` with `spec` on the chosen lights and `none` on the others.
+pub fn renderer(gpu: &shadowlab::Gpu, setup: &Setup, spec: &shadowlab::TechniqueSpec) -> Result<shadowlab::Renderer> {
+    let mut r = shadowlab::Renderer::new(gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
+    let none = shadowlab::TechniqueSpec::parse("none", &[])?;
+    for (i, light) in setup.scene.lights.iter().enumerate() {
+        let id = LightId(i as u32);
+        if setup.lights.contains(&id) {
+            r.set_technique(id, spec).with_context(|| format!("light '{}'", light.name))?;
+        } else {
+            r.set_technique(id, &none)?;
+        }
+    }
+    Ok(r)
+}

@@ -2,7 +2,9 @@
 
 mod args;
 mod commands;
+mod measure;
 mod progress;
+mod report;
 
 use clap::{Parser, Subcommand};
 
@@ -20,15 +22,27 @@ struct Cli {
 enum Command {
     /// List the built-in scenes: lights, views, triangle counts, options.
     Scenes(commands::scenes::Args),
+    /// List the shadow techniques: ids, light types, parameters.
+    Techniques(commands::techniques::Args),
+    /// Render one lit image with a technique.
+    Render(commands::render::Args),
     /// Ray-trace the reference visibility of every light on the CPU (no GPU needed).
     Reference(commands::reference::Args),
+    /// Compare techniques with the ray-traced truth: metrics.json, images, report.html.
+    Compare(commands::compare::Args),
+    /// Time techniques: GPU ms per pass, CPU ms, memory, ratios over `hard`.
+    Bench(commands::bench::Args),
 }
 
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Scenes(a) => commands::scenes::run(&cli.global, a),
+        Command::Techniques(a) => commands::techniques::run(&cli.global, a),
+        Command::Render(a) => commands::render::run(&cli.global, a),
         Command::Reference(a) => commands::reference::run(&cli.global, a),
+        Command::Compare(a) => commands::compare::run(&cli.global, a),
+        Command::Bench(a) => commands::bench::run(&cli.global, a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

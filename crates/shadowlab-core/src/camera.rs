@@ -53,10 +53,10 @@ impl View {
         glam::camera::rh::view::look_at_mat4(self.position, self.target, self.up)
     }
 
-    /// Perspective projection with depth in [0, 1] (wgpu, D3D, Metal).
+    /// Perspective projection into wgpu's clip space (y up, depth in [0, 1]) with **reversed Z**:
+    /// the near plane maps to depth 1, the far plane to 0 (see [`crate::lightspace`]).
     pub fn projection(&self, aspect: f32) -> Mat4 {
-        // wgpu's clip space is D3D's: y up, depth in [0, 1].
-        glam::camera::rh::proj::directx::perspective(self.fov_y, aspect, self.near, self.far)
+        crate::lightspace::perspective_reversed(self.fov_y, aspect, self.near, self.far)
     }
 
     pub fn view_projection(&self, width: u32, height: u32) -> Mat4 {

@@ -16,6 +16,7 @@ pub mod bounds;
 pub mod camera;
 pub mod error;
 pub mod light;
+pub mod lightspace;
 pub mod load;
 pub mod material;
 pub mod mesh;

@@ -48,6 +48,9 @@ pub struct PreparedRay {
 impl PreparedRay {
     /// A ray from `origin` along unit `dir`, testing `tmin..=tmax`.
     pub fn new(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Self {
+        // obvhs takes a direction's sign from `d < 0` but inverts −0.0 to −1/ε: the two disagree for
+        // negative zero and the box tests miss everything. Fold −0.0 to +0.0.
+        let dir = dir.map(|c| if c == 0.0 { 0.0 } else { c });
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         // Woop et al. §3: permute so that the largest direction component is "z".
         let kz = dir.abs().max_position();
@@ -222,6 +225,20 @@ mod tests {
         assert!(r.intersect(&tri()).is_none());
         let r = PreparedRay::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, 0.0, 0.5);
         assert!(r.intersect(&tri()).is_none(), "beyond tmax");
+    }
+
+    #[test]
+    fn negative_zero_direction_components_still_hit() {
+        // A box standing on the floor, a ray towards it whose z component is −0.0.
+        let mut scene = shadowlab_core::Scene::new("box");
+        let m = scene.add_material(shadowlab_core::Material::default());
+        let cube = scene.add_mesh(shadowlab_core::primitives::cuboid(Vec3::ONE));
+        scene.add_instance(Instance::new("box", cube, m, Affine3A::from_translation(Vec3::new(0.0, 0.5, 0.0))));
+        let bvh = SceneBvh::build(&scene, Selection::All);
+        let dir = -Vec3::new(-1.0, -1.0, 0.0).normalize();
+        assert!(dir.z.is_sign_negative(), "the case under test");
+        let ray = PreparedRay::new(Vec3::new(-0.6, 0.001, 0.0), dir, 0.0, f32::INFINITY);
+        assert!(!bvh.unoccluded(&ray));
     }
 
     #[test]

@@ -58,6 +58,31 @@ pub fn write_rgb_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result
     img.save(path).map_err(|source| ImageError::Encode { path: path.to_path_buf(), source })
 }
 
+/// Encodes RGB bytes as a PNG in memory.
+pub fn encode_rgb_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, ImageError> {
+    check_len(Path::new("<memory>"), rgb.len(), width, height, 3)?;
+    let mut out = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new(&mut out);
+    image::ImageEncoder::write_image(encoder, rgb, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|source| ImageError::Encode { path: PathBuf::from("<memory>"), source })?;
+    Ok(out)
+}
+
+/// Visibility as 8-bit grey RGB for display; not-relevant pixels in [`NOT_RELEVANT`] grey.
+pub fn visibility_rgb(values: &[f32]) -> Vec<u8> {
+    values
+        .iter()
+        .flat_map(|&v| {
+            if v.is_nan() {
+                NOT_RELEVANT
+            } else {
+                let g = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+                [g, g, g]
+            }
+        })
+        .collect()
+}
+
 /// The header written beside a raw f32 file.
 #[derive(Debug, Clone, Serialize)]
 pub struct RawHeader<'a> {

@@ -188,3 +188,43 @@ pub fn reference(
     let rays = out.iter().map(|v| v.rays).sum();
     ReferenceResult { lights: out, seconds: start.elapsed().as_secs_f64(), rays, bvh_build: bvh.build_time }
 }
+
+/// Marks the pixels whose surface point lies within `radius(p)` of a hard shadow boundary, measured
+/// perpendicular to the light ray: the reference is traced from 8 points around p (offsets of r
+/// along two axes perpendicular to the direction to the light, and the diagonals, each slid along
+/// the light ray onto p's tangent plane: the footprint of a shadow-map texel on the receiver), and
+/// a pixel is marked when any of them disagrees with p itself. Tests use it with r = one shadow-map texel to exclude the
+/// pixels a map of that resolution cannot decide. The light's emitter size is ignored (its centre
+/// is used).
+pub fn near_hard_boundary(
+    bvh: &SceneBvh,
+    surface: &SurfaceBuffer,
+    light: &Light,
+    radius: &(dyn Fn(Vec3) -> f32 + Sync),
+) -> Vec<bool> {
+    let eps = EPSILON_SCALE * bvh.scene_diagonal.max(1e-6);
+    let mut centre = light.clone();
+    centre.scale_emitter(0.0);
+    let visible = |p: Vec3, n: Vec3| sample_visible(bvh, &centre, p + n * eps, n, Vec2::splat(0.5), eps);
+    (0..surface.len())
+        .into_par_iter()
+        .map(|i| {
+            let (p, n) = (surface.positions[i], surface.normals[i]);
+            if !surface.covered[i] || !light.is_relevant(p, n) {
+                return false;
+            }
+            let here = visible(p, n);
+            let (l, _) = light.to_light(p);
+            let (t, b) = shadowlab_core::sampling::orthonormal_basis(l);
+            let r = radius(p);
+            let d = std::f32::consts::FRAC_1_SQRT_2;
+            let n_dot_l = n.dot(l).max(1e-3);
+            [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0), (d, d), (-d, d), (d, -d), (-d, -d)].iter().any(
+                |&(x, y)| {
+                    let o = r * (x * t + y * b);
+                    visible(p + o - l * (n.dot(o) / n_dot_l), n) != here
+                },
+            )
+        })
+        .collect()
+}

@@ -1,6 +1,29 @@
 //! # shadowlab
 //!
-//! The engine applications embed: wgpu context, G-buffer, lighting and the shadow techniques. It is
-//! built up in the GPU pipeline issue; today it re-exports the scene model it will render.
+//! Real-time shadow techniques on wgpu, each writing a per-light visibility layer that the
+//! ray-traced reference can check pixel by pixel.
+//!
+//! - [`gpu::Gpu`]: a device found headless ([`gpu::Gpu::new`]) or an application's own
+//!   ([`gpu::Gpu::from_device`]).
+//! - [`renderer::Shadows`]: shadows for every light over a [`frame::SurfaceInputs`] (depth,
+//!   normals, camera): what applications embed.
+//! - [`renderer::Renderer`]: shadowlab's own deferred frame around it (G-buffer, lighting, tone
+//!   mapping) with readbacks for the reports.
+//! - [`technique`]: the technique contract and registry; [`techniques`]: the techniques.
 
+pub mod frame;
+pub mod gpu;
+pub mod gpu_scene;
+pub mod renderer;
+pub mod shader;
+pub mod shadowmap;
+pub mod technique;
+pub mod techniques;
+pub mod timing;
+pub mod util;
+
+pub use frame::{CameraUniform, SurfaceInputs, VisibilityLayer};
+pub use gpu::{BackendChoice, Gpu, GpuError};
+pub use renderer::{FrameReport, Renderer, Shadows};
 pub use shadowlab_core as core;
+pub use technique::{ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueSpec, TechniqueStats, registry};

@@ -1,2 +1,6 @@
+pub mod bench;
+pub mod compare;
 pub mod reference;
+pub mod render;
 pub mod scenes;
+pub mod techniques;

@@ -1,0 +1,391 @@
+//! `shadowlab compare`: every technique against the ray-traced truth, on the same surface.
+//!
+//! 1. Render the G-buffer once and read back the surface (positions as the techniques reconstruct
+//!    them, and normals).
+//! 2. Ray-trace the reference visibility of each chosen light on that surface (and a second one with
+//!    another seed: the noise floor).
+//! 3. Per technique: render warm-up and timed frames, read each light's visibility, measure it.
+//! 4. Write `metrics.json`, the images, visibilities and error heatmaps, and `report.html`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use serde_json::{Value, json};
+use shadowlab::TechniqueSpec;
+use shadowlab_core::LightId;
+use shadowlab_reference::images::{
+    encode_rgb_png, error_heatmap, visibility_rgb, write_raw_f32, write_rgb_png, write_visibility_png,
+};
+use shadowlab_reference::metrics::{ErrorStats, flip_mean, rmse_between};
+use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference};
+
+use crate::args::{GlobalArgs, SceneArgs, Setup, TechniqueArgs, open_gpu, renderer, slug};
+use crate::measure::{Timing, measure};
+use crate::progress;
+use crate::report::{self, PlotPoint};
+
+/// The techniques compared when none are named.
+pub const DEFAULT_TECHNIQUES: &[&str] = &["none", "hard", "pcf", "sampled"];
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    techniques: TechniqueArgs,
+    /// Reference emitter samples per pixel (area lights).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    samples: u32,
+    /// Reference seed (the noise floor uses seed + 1).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Timed frames per technique (the median is reported); `bench` defaults to more.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    frames: u32,
+    /// Untimed frames before timing.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=100))]
+    warmup: u32,
+    /// Output directory.
+    #[arg(long, default_value = "out/compare")]
+    out: PathBuf,
+}
+
+struct LightRef<'a> {
+    id: LightId,
+    name: &'a str,
+    stem: String,
+    values: Vec<f32>,
+}
+
+pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
+    let setup = args.scene.load()?;
+    let specs = args.techniques.specs(DEFAULT_TECHNIQUES)?;
+    for s in &specs {
+        for id in &setup.lights {
+            let l = &setup.scene.lights[id.index()];
+            anyhow::ensure!(
+                s.info.supports(l),
+                "technique '{}' does not support {} light '{}'",
+                s.spec,
+                l.type_name(),
+                l.name
+            );
+        }
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let gpu = open_gpu(global)?;
+    let (w, h) = (setup.width, setup.height);
+
+    // 1. The surface, from a renderer that shadows nothing (its G-buffer is every technique's).
+    let none = TechniqueSpec::parse("none", &[])?;
+    let mut base = renderer(&gpu, &setup, &none)?;
+    base.render()?;
+    let surface = base.read_surface()?;
+
+    // 2. The reference and its noise floor.
+    let bvh = SceneBvh::build(&setup.scene, Selection::Casters);
+    let lights: Vec<(u32, &shadowlab_core::Light)> =
+        setup.lights.iter().map(|id| (id.0, &setup.scene.lights[id.index()])).collect();
+    let settings = ReferenceSettings { samples: args.samples, seed: args.seed };
+    let total = (surface.len() * lights.len() * 2) as u64;
+    let bar = progress::bar(total, "reference (CPU ray tracing)");
+    let half = (surface.len() * lights.len()) as u64;
+    let truth = reference(&bvh, &surface, &lights, &settings, Some(&|d, _| bar.set_position(d as u64)));
+    let second = ReferenceSettings { seed: args.seed.wrapping_add(1), ..settings };
+    let noise = reference(&bvh, &surface, &lights, &second, Some(&|d, _| bar.set_position(half + d as u64)));
+    bar.finish_and_clear();
+    let noise_floor = {
+        let (a, b): (Vec<f32>, Vec<f32>) = truth
+            .lights
+            .iter()
+            .zip(&noise.lights)
+            .flat_map(|(x, y)| x.values.iter().copied().zip(y.values.iter().copied()))
+            .unzip();
+        rmse_between(&a, &b)
+    };
+    eprintln!(
+        "reference: {} samples, {:.1} s, {:.1} M rays/s, noise floor RMSE {noise_floor:.4}",
+        args.samples,
+        truth.seconds,
+        truth.rays_per_second() / 1e6
+    );
+
+    let refs: Vec<LightRef> = setup
+        .lights
+        .iter()
+        .zip(&truth.lights)
+        .map(|(id, v)| {
+            let light = &setup.scene.lights[id.index()];
+            LightRef {
+                id: *id,
+                name: &light.name,
+                stem: format!("light{}-{}", id.0, slug(&light.name)),
+                values: v.values.clone(),
+            }
+        })
+        .collect();
+    let ref_layers: Vec<(LightId, &[f32])> = refs.iter().map(|r| (r.id, r.values.as_slice())).collect();
+    let reference_image = base.image_with_visibility(&ref_layers)?;
+    write_rgb_png(&args.out.join("reference.png"), &reference_image, w, h)?;
+    for r in &refs {
+        let stem = args.out.join(format!("reference-{}", r.stem));
+        write_visibility_png(&stem.with_extension("png"), &r.values, w, h)?;
+        write_raw_f32(&stem, &r.values, w, h, 1, "reference visibility V in [0,1]; NaN = not relevant")?;
+    }
+    drop(base);
+
+    // 3. The techniques.
+    let frames = args.frames as usize;
+    let warmup = args.warmup as usize;
+    let bar = progress::bar((specs.len() * (frames + warmup)) as u64, "techniques (GPU)");
+    let mut entries = Vec::new();
+    let mut outcomes = Vec::new();
+    let mut used = Vec::new();
+    for spec in &specs {
+        bar.set_message(format!("technique {}", spec.spec));
+        let m = measure(&gpu, &setup, spec, warmup, frames, &|| bar.inc(1))?;
+        let mut tslug = slug(&spec.spec);
+        while used.contains(&tslug) {
+            tslug.push('_');
+        }
+        used.push(tslug.clone());
+        let image = m.renderer.read_image()?;
+        write_rgb_png(&args.out.join(format!("{tslug}.png")), &image, w, h)?;
+        let mut pooled = ErrorStats::default();
+        let mut light_entries = Vec::new();
+        let mut light_images = Vec::new();
+        for r in &refs {
+            let v = m.renderer.read_visibility(r.id)?.context("light without a visibility layer")?;
+            let stats = ErrorStats::compare(&v, &r.values);
+            pooled.merge(&stats);
+            let s = stats.summary();
+            light_entries.push(json!({
+                "index": r.id.0, "name": r.name, "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs,
+                "wrong_frac": s.wrong_frac, "penumbra_rmse": s.penumbra_rmse, "relevant_pixels": s.relevant_pixels,
+            }));
+            // Shown where the reference is relevant; elsewhere the technique's value means nothing.
+            let masked: Vec<f32> =
+                v.iter().zip(&r.values).map(|(&x, &y)| if y.is_nan() { f32::NAN } else { x }).collect();
+            let stem = args.out.join(format!("{tslug}-{}", r.stem));
+            write_visibility_png(&stem.with_extension("png"), &masked, w, h)?;
+            write_raw_f32(&stem, &masked, w, h, 1, "technique visibility V; NaN = not relevant for the reference")?;
+            let heat = error_heatmap(&v, &r.values);
+            write_rgb_png(&args.out.join(format!("{tslug}-{}-error.png", r.stem)), &heat, w, h)?;
+            light_images.push((encode_rgb_png(&visibility_rgb(&masked), w, h)?, encode_rgb_png(&heat, w, h)?));
+        }
+        let flip = flip_mean(&reference_image, &image, w, h);
+        let s = pooled.summary();
+        let stats = m.renderer.shadows.stats();
+        entries.push(json!({
+            "id": spec.info.id,
+            "spec": spec.spec,
+            "params": spec.params.to_json(),
+            "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs, "wrong_frac": s.wrong_frac,
+            "penumbra_rmse": s.penumbra_rmse, "flip_mean": flip,
+            "lights": light_entries,
+            "gpu_ms": m.timing.gpu_json(),
+            "cpu_ms": { "median": m.timing.cpu_median },
+            "memory_bytes": stats.memory_bytes,
+            "frames": m.timing.frames, "warmup": m.timing.warmup,
+            "passes": stats.passes, "draws": stats.draws, "shadow_triangles": stats.triangles,
+        }));
+        outcomes.push(Outcome {
+            spec: spec.spec.clone(),
+            timing: m.timing.clone(),
+            image: encode_rgb_png(&image, w, h)?,
+            light_images,
+        });
+    }
+    bar.finish_and_clear();
+
+    // 4. Reports.
+    let hard_ms = outcomes.iter().find(|o| o.spec == "hard").map(|o| o.timing.frame_ms());
+    for (e, o) in entries.iter_mut().zip(&outcomes) {
+        e["time_ratio_over_hard"] = hard_ms.map(|h| json!(o.timing.frame_ms() / h)).unwrap_or(Value::Null);
+    }
+    let metrics = json!({
+        "scene": setup.scene.name,
+        "view": setup.view.name,
+        "width": w, "height": h,
+        "adapter": { "name": gpu.adapter.name, "backend": gpu.adapter.backend, "device_type": gpu.adapter.device_type },
+        "reference": {
+            "samples": args.samples, "seed": args.seed, "seconds": truth.seconds,
+            "noise_floor_rmse": noise_floor, "rays_per_second": truth.rays_per_second(),
+        },
+        "emitter_scale": args.scene.emitter_scale,
+        "lights": refs.iter().map(|r| json!({"index": r.id.0, "name": r.name, "type": setup.scene.lights[r.id.index()].type_name()})).collect::<Vec<_>>(),
+        "techniques": entries,
+    });
+    std::fs::write(args.out.join("metrics.json"), serde_json::to_string_pretty(&metrics)?)?;
+    let html = report_html(&setup, &metrics, &outcomes, &refs, &encode_rgb_png(&reference_image, w, h)?, &args.out)?;
+    std::fs::write(args.out.join("report.html"), html)?;
+    print_summary(&metrics);
+    println!("→ {}", args.out.join("report.html").display());
+    Ok(())
+}
+
+struct Outcome {
+    spec: String,
+    timing: Timing,
+    image: Vec<u8>,
+    /// Per light: (visibility, error heatmap) PNGs.
+    light_images: Vec<(Vec<u8>, Vec<u8>)>,
+}
+
+fn fmt(v: &Value, digits: usize) -> String {
+    v.as_f64().map(|x| format!("{x:.digits$}")).unwrap_or_else(|| "–".to_owned())
+}
+
+fn print_summary(metrics: &Value) {
+    println!(
+        "{:<34} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8}",
+        "technique", "RMSE", "wrong%", "pen.RMSE", "GPU ms", "×hard", "MiB"
+    );
+    for t in metrics["techniques"].as_array().into_iter().flatten() {
+        println!(
+            "{:<34} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8.1}",
+            t["spec"].as_str().unwrap_or(""),
+            fmt(&t["rmse"], 4),
+            t["wrong_frac"].as_f64().map(|x| format!("{:.2}", 100.0 * x)).unwrap_or_default(),
+            fmt(&t["penumbra_rmse"], 4),
+            fmt(&t["gpu_ms"]["median"], 2),
+            fmt(&t["time_ratio_over_hard"], 2),
+            t["memory_bytes"].as_f64().unwrap_or(0.0) / (1024.0 * 1024.0)
+        );
+    }
+}
+
+fn report_html(
+    setup: &Setup,
+    metrics: &Value,
+    outcomes: &[Outcome],
+    refs: &[LightRef],
+    reference_png: &[u8],
+    out: &Path,
+) -> Result<String> {
+    let techniques = metrics["techniques"].as_array().cloned().unwrap_or_default();
+    let rows: Vec<Vec<String>> = techniques
+        .iter()
+        .map(|t| {
+            let passes = &t["gpu_ms"]["passes"];
+            vec![
+                report::escape(t["spec"].as_str().unwrap_or("")),
+                fmt(&t["rmse"], 4),
+                fmt(&t["mae"], 4),
+                fmt(&t["max_abs"], 3),
+                t["wrong_frac"].as_f64().map(|x| format!("{:.2}%", 100.0 * x)).unwrap_or_default(),
+                fmt(&t["penumbra_rmse"], 4),
+                fmt(&t["flip_mean"], 4),
+                fmt(&t["gpu_ms"]["median"], 2),
+                fmt(&t["time_ratio_over_hard"], 2),
+                format!(
+                    "{} / {} / {} / {}",
+                    fmt(&passes["gbuffer"], 2),
+                    fmt(&passes["shadow"], 2),
+                    fmt(&passes["visibility"], 2),
+                    fmt(&passes["lighting"], 2)
+                ),
+                fmt(&t["cpu_ms"]["median"], 1),
+                format!("{:.1}", t["memory_bytes"].as_f64().unwrap_or(0.0) / (1024.0 * 1024.0)),
+            ]
+        })
+        .collect();
+    let table = report::table(
+        &[
+            "technique",
+            "RMSE",
+            "MAE",
+            "max |Δ|",
+            "wrong",
+            "penumbra RMSE",
+            "FLIP",
+            "GPU ms",
+            "× hard",
+            "G-buf / shadow / vis / light ms",
+            "CPU ms",
+            "MiB",
+        ],
+        &rows,
+    );
+    // Penumbra RMSE when every technique has penumbra pixels, else the wrong-pixel fraction.
+    let use_penumbra = techniques.iter().all(|t| t["penumbra_rmse"].is_number());
+    let (error_name, key) =
+        if use_penumbra { ("penumbra RMSE", "penumbra_rmse") } else { ("wrong-pixel fraction", "wrong_frac") };
+    let timed_on_gpu = outcomes.iter().all(|o| o.timing.gpu_median.is_some());
+    let points: Vec<PlotPoint> = techniques
+        .iter()
+        .zip(outcomes)
+        .map(|(t, o)| PlotPoint {
+            label: o.spec.clone(),
+            ms: o.timing.frame_ms(),
+            error: t[key].as_f64().unwrap_or(f64::NAN),
+        })
+        .collect();
+    let svg = report::quality_time_svg(
+        &points,
+        error_name,
+        if timed_on_gpu { "GPU ms per frame (median)" } else { "CPU ms per frame (median)" },
+    )?;
+    std::fs::write(out.join("quality_time.svg"), &svg)?;
+
+    let mut images = String::from("<div class=\"grid\">");
+    images.push_str(&format!(
+        "<figure>{}<figcaption>reference (ray traced)</figcaption></figure>",
+        report::img(reference_png, "reference")
+    ));
+    for o in outcomes {
+        images.push_str(&format!(
+            "<figure>{}<figcaption>{}</figcaption></figure>",
+            report::img(&o.image, &o.spec),
+            report::escape(&o.spec)
+        ));
+    }
+    images.push_str("</div>");
+    let mut per_light = String::new();
+    for (k, r) in refs.iter().enumerate() {
+        per_light.push_str(&format!("<h3>light {} '{}'</h3><div class=\"grid\">", r.id.0, report::escape(r.name)));
+        let ref_png = encode_rgb_png(&visibility_rgb(&r.values), setup.width, setup.height)?;
+        per_light.push_str(&format!(
+            "<figure>{}<figcaption>reference V</figcaption></figure>",
+            report::img(&ref_png, "reference")
+        ));
+        for o in outcomes {
+            let (vis, heat) = &o.light_images[k];
+            per_light.push_str(&format!(
+                "<figure>{}<figcaption>{} V</figcaption></figure><figure>{}<figcaption>{} error</figcaption></figure>",
+                report::img(vis, &o.spec),
+                report::escape(&o.spec),
+                report::img(heat, &o.spec),
+                report::escape(&o.spec)
+            ));
+        }
+        per_light.push_str("</div>");
+    }
+    let a = &metrics["adapter"];
+    let r = &metrics["reference"];
+    Ok(format!(
+        "<!doctype html><html><head><meta charset=\"utf-8\"><title>shadowlab: {scene}/{view}</title><style>{style}</style></head><body>\
+<h1>shadowlab compare: {scene} / {view}</h1>\
+<p>{w}×{h} pixels · lights: {lights} · adapter: {adapter} ({backend}, {dtype}) · reference: {samples} samples, seed {seed}, {secs:.1} s · noise floor RMSE {noise:.4}</p>\
+<h2>Which technique, at what cost, how wrong</h2>{table}\
+<p class=\"note\">Errors over relevant pixels (DESIGN.md §6): wrong = |V − V<sub>ref</sub>| &gt; 0.1; penumbra RMSE over pixels where V or V<sub>ref</sub> is in (0.02, 0.98); FLIP of the final image against the image lit with the reference visibility. Times are medians of {frames} frames after warm-up; ratios over <code>hard</code> hold across machines, absolute times do not (a CPU adapter is not a GPU).</p>\
+<h2>Quality against time</h2>{svg}\
+<h2>Images</h2>{images}\
+<h2>Visibility and error per light</h2><p class=\"note\">Error heatmaps: white exact, blue too dark (V &lt; V<sub>ref</sub>), red too bright; grey not relevant. Colour ∝ √|Δ|.</p>{per_light}\
+</body></html>",
+        scene = report::escape(&setup.scene.name),
+        view = report::escape(&setup.view.name),
+        style = report::STYLE,
+        w = setup.width,
+        h = setup.height,
+        lights = refs.iter().map(|r| report::escape(r.name)).collect::<Vec<_>>().join(", "),
+        adapter = report::escape(a["name"].as_str().unwrap_or("")),
+        backend = a["backend"].as_str().unwrap_or(""),
+        dtype = a["device_type"].as_str().unwrap_or(""),
+        samples = r["samples"],
+        seed = r["seed"],
+        secs = r["seconds"].as_f64().unwrap_or(0.0),
+        noise = r["noise_floor_rmse"].as_f64().unwrap_or(0.0),
+        frames = outcomes.first().map(|o| o.timing.frames).unwrap_or(0),
+    ))
+}

@@ -1,0 +1,50 @@
+//! `shadowlab render`: one lit image with one technique on every chosen light.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use shadowlab_reference::images::write_rgb_png;
+
+use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, renderer};
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    techniques: TechniqueArgs,
+    /// Output PNG file.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
+    let setup = args.scene.load()?;
+    let specs = args.techniques.specs(&["hard"])?;
+    let spec = specs.first().context("no technique")?;
+    if specs.len() > 1 {
+        eprintln!("warning: render uses one technique; rendering '{}'", spec.spec);
+    }
+    let gpu = open_gpu(global)?;
+    let mut r = renderer(&gpu, &setup, spec)?;
+    let report = r.render()?;
+    let image = r.read_image()?;
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    write_rgb_png(&args.out, &image, setup.width, setup.height)?;
+    println!(
+        "{} on {}/{} at {}x{}: {} → {}",
+        spec.spec,
+        setup.scene.name,
+        setup.view.name,
+        setup.width,
+        setup.height,
+        match report.gpu {
+            Some(t) => format!("{:.2} ms GPU", t.total()),
+            None => format!("{:.2} ms CPU", report.cpu_ms),
+        },
+        args.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,270 @@
+//! The command-line contract of DESIGN.md §6, end to end: files written, JSON keys present, clear
+//! errors with a non-zero exit code for bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn shadowlab(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_shadowlab")).args(args).output().expect("the binary runs")
+}
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("shadowlab-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "stdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn fails_with(args: &[&str], message: &str) {
+    let out = shadowlab(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert!(stderr.contains(message), "{args:?}: expected '{message}' in: {stderr}");
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).unwrap()
+}
+
+#[test]
+fn compare_writes_every_file_and_key() {
+    let out_dir = temp("compare-penumbra");
+    let out = out_dir.to_str().unwrap();
+    ok(&shadowlab(&[
+        "compare",
+        "--scene",
+        "penumbra",
+        "--size",
+        "48x48",
+        "--samples",
+        "16",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--out",
+        out,
+    ]));
+    let m = json(&out_dir.join("metrics.json"));
+    for key in ["scene", "view", "width", "height", "adapter", "reference", "techniques"] {
+        assert!(!m[key].is_null(), "metrics.json lacks '{key}'");
+    }
+    for key in ["name", "backend", "device_type"] {
+        assert!(m["adapter"][key].is_string(), "adapter.{key}");
+    }
+    for key in ["samples", "seed", "seconds", "noise_floor_rmse"] {
+        assert!(m["reference"][key].is_number(), "reference.{key}");
+    }
+    let techniques = m["techniques"].as_array().unwrap();
+    let ids: Vec<&str> = techniques.iter().map(|t| t["id"].as_str().unwrap()).collect();
+    assert_eq!(ids, ["none", "hard", "pcf", "sampled"]);
+    for t in techniques {
+        for key in [
+            "id",
+            "spec",
+            "params",
+            "rmse",
+            "mae",
+            "max_abs",
+            "wrong_frac",
+            "penumbra_rmse",
+            "flip_mean",
+            "lights",
+            "gpu_ms",
+            "cpu_ms",
+            "memory_bytes",
+        ] {
+            assert!(t.get(key).is_some(), "technique {} lacks '{key}'", t["spec"]);
+        }
+        assert!(t["gpu_ms"].get("median").is_some() && t["gpu_ms"].get("passes").is_some());
+        assert!(t["cpu_ms"]["median"].is_number());
+        for l in t["lights"].as_array().unwrap() {
+            for key in ["index", "name", "rmse", "mae", "max_abs", "wrong_frac", "relevant_pixels"] {
+                assert!(l.get(key).is_some(), "light entry lacks '{key}'");
+            }
+        }
+        let slug = t["spec"].as_str().unwrap();
+        for file in
+            [format!("{slug}.png"), format!("{slug}-light0-panel.png"), format!("{slug}-light0-panel-error.png")]
+        {
+            assert!(out_dir.join(&file).is_file(), "missing {file}");
+        }
+    }
+    for file in
+        ["report.html", "quality_time.svg", "reference.png", "reference-light0-panel.png", "reference-light0-panel.f32"]
+    {
+        assert!(out_dir.join(file).is_file(), "missing {file}");
+    }
+    let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
+    assert!(html.contains("<svg") && html.contains("data:image/png;base64,") && html.contains("sampled"));
+    // `none` ignores every shadow: it must be the worst.
+    let rmse = |i: usize| techniques[i]["rmse"].as_f64().unwrap();
+    assert!(rmse(0) > rmse(1) && rmse(0) > rmse(3));
+    std::fs::remove_dir_all(out_dir).ok();
+}
+
+#[test]
+fn compare_runs_on_room_with_configured_techniques() {
+    let out_dir = temp("compare-room");
+    let out = out_dir.to_str().unwrap();
+    ok(&shadowlab(&[
+        "compare",
+        "--scene",
+        "room",
+        "--size",
+        "40x40",
+        "--samples",
+        "4",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--technique",
+        "hard",
+        "--technique",
+        "pcf:kernel=box,taps=9",
+        "--technique",
+        "sampled:samples=4",
+        "--set",
+        "map_size=512",
+        "--out",
+        out,
+    ]));
+    let m = json(&out_dir.join("metrics.json"));
+    let t = m["techniques"].as_array().unwrap();
+    assert_eq!(t[1]["spec"], "pcf:kernel=box,taps=9");
+    assert_eq!(t[1]["params"]["taps"], 9);
+    assert_eq!(t[1]["params"]["map_size"], 512, "--set reaches every technique that has the parameter");
+    assert_eq!(t[0]["lights"].as_array().unwrap().len(), 4);
+    std::fs::remove_dir_all(out_dir).ok();
+}
+
+#[test]
+fn listings_are_json() {
+    let out = shadowlab(&["scenes", "--json"]);
+    ok(&out);
+    let scenes: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let names: Vec<&str> = scenes.as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["room", "penumbra", "columns", "terrain"]);
+    assert!(scenes[0]["triangles"].as_u64().unwrap() > 20_000);
+    let out = shadowlab(&["techniques", "--json"]);
+    ok(&out);
+    let t: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let pcf = t.as_array().unwrap().iter().find(|t| t["id"] == "pcf").unwrap();
+    assert!(
+        pcf["params"].as_array().unwrap().iter().any(|p| p["name"] == "kernel" && p["range"] == "box|poisson|rotated")
+    );
+}
+
+#[test]
+fn render_reference_and_bench_run() {
+    let dir = temp("misc");
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("r.png");
+    ok(&shadowlab(&[
+        "render",
+        "--scene",
+        "columns",
+        "--size",
+        "32x24",
+        "--technique",
+        "pcf",
+        "--out",
+        png.to_str().unwrap(),
+    ]));
+    assert!(png.is_file());
+    let refdir = dir.join("ref");
+    ok(&shadowlab(&[
+        "reference",
+        "--scene",
+        "penumbra",
+        "--size",
+        "16x16",
+        "--samples",
+        "4",
+        "--out",
+        refdir.to_str().unwrap(),
+    ]));
+    for f in
+        ["reference.json", "light0-panel.png", "light0-panel.f32", "light0-panel.json", "positions.f32", "normals.f32"]
+    {
+        assert!(refdir.join(f).is_file(), "missing {f}");
+    }
+    let bench = dir.join("bench.json");
+    let out = shadowlab(&[
+        "bench",
+        "--scene",
+        "penumbra",
+        "--size",
+        "32x32",
+        "--frames",
+        "2",
+        "--warmup",
+        "0",
+        "--techniques",
+        "hard,pcf",
+        "--json",
+        bench.to_str().unwrap(),
+    ]);
+    ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("shadow") && stdout.contains("×hard"), "{stdout}");
+    let b = json(&bench);
+    assert_eq!(b["techniques"][0]["time_ratio_over_hard"], 1.0);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn gl_backend_smoke() {
+    let dir = temp("gl");
+    let out = dir.to_str().unwrap();
+    ok(&shadowlab(&[
+        "--backend",
+        "gl",
+        "compare",
+        "--scene",
+        "penumbra",
+        "--size",
+        "32x32",
+        "--samples",
+        "4",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--techniques",
+        "hard",
+        "--out",
+        out,
+    ]));
+    let m = json(&dir.join("metrics.json"));
+    assert_eq!(m["adapter"]["backend"], "gl");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let out = temp("bad");
+    let o = out.to_str().unwrap();
+    fails_with(&["compare", "--technique", "shadowz", "--out", o], "unknown technique 'shadowz'");
+    fails_with(&["compare", "--scene", "rooom", "--out", o], "unknown scene 'rooom'");
+    fails_with(&["compare", "--set", "map_size", "--out", o], "expected KEY=VALUE");
+    fails_with(&["compare", "--set", "map_size=0", "--out", o], "out of range");
+    fails_with(&["compare", "--set", "colour=red", "--out", o], "unknown parameter 'colour'");
+    fails_with(&["compare", "--technique", "pcf:taps=many", "--out", o], "expected an integer");
+    fails_with(&["render", "--scene", "no/such/scene.obj", "--out", "x.png"], "no such file");
+    fails_with(&["render", "--view", "attic", "--out", "x.png"], "no view 'attic'");
+    fails_with(&["render", "--lights", "moon", "--out", "x.png"], "no light 'moon'");
+    fails_with(&["render", "--size", "0x10", "--out", "x.png"], "size");
+    fails_with(&["render", "--emitter-scale", "NaN", "--out", "x.png"], "emitter-scale");
+    fails_with(&["reference", "--scene", "terrain:sun=90", "--out", o], "sun");
+    std::fs::remove_dir_all(out).ok();
+}

@@ -1,0 +1,323 @@
+//! Light-space maths: the views a shadow map is rendered from.
+//!
+//! All projections here use **reversed Z** with depth in [0, 1]: the near plane maps to 1 and the far
+//! plane to 0. With a floating-point depth buffer this spreads precision evenly over the whole range
+//! (the float's dense values near 0 meet the projection's crowding at the far end), which is what
+//! long light frusta need. A stored depth is *closer to the light* when it is *larger*.
+
+use glam::{Mat4, Vec3, Vec4};
+
+use crate::bounds::Aabb;
+use crate::light::{Light, LightKind};
+use crate::sampling::orthonormal_basis;
+
+/// Reversed-Z perspective projection (right-handed view space looking down −Z).
+pub fn perspective_reversed(fov_y: f32, aspect: f32, near: f32, far: f32) -> Mat4 {
+    let f = 1.0 / (0.5 * fov_y).tan();
+    let a = near / (far - near);
+    let b = near * far / (far - near);
+    Mat4::from_cols(
+        Vec4::new(f / aspect, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, f, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, a, -1.0),
+        Vec4::new(0.0, 0.0, b, 0.0),
+    )
+}
+
+/// Reversed-Z orthographic projection of the view-space box `[l, r] × [b, t]` between distances
+/// `near` and `far` in front of the eye.
+pub fn orthographic_reversed(l: f32, r: f32, b: f32, t: f32, near: f32, far: f32) -> Mat4 {
+    let (w, h, d) = (r - l, t - b, far - near);
+    Mat4::from_cols(
+        Vec4::new(2.0 / w, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, 2.0 / h, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, 1.0 / d, 0.0),
+        Vec4::new(-(r + l) / w, -(t + b) / h, far / d, 1.0),
+    )
+}
+
+/// A right-handed view matrix at `eye` looking along unit `dir`, with an up vector that is never
+/// parallel to it.
+pub fn look_along(eye: Vec3, dir: Vec3) -> Mat4 {
+    let up = if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+    glam::camera::rh::view::look_at_mat4(eye, eye + dir, up)
+}
+
+/// One rendered view of a shadow map (a cube face, a cascade, a frustum).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShadowView {
+    pub view: Mat4,
+    pub projection: Mat4,
+    pub view_projection: Mat4,
+    /// The eye (perspective) or a point on the near plane's axis (orthographic).
+    pub eye: Vec3,
+    /// Unit viewing direction.
+    pub axis: Vec3,
+    pub orthographic: bool,
+    pub near: f32,
+    pub far: f32,
+    /// World size of one texel: for orthographic views that size; for perspective views the size per
+    /// unit of distance along `axis` (so the size at p is `texel_scale × (p − eye)·axis`).
+    pub texel_scale: f32,
+}
+
+impl ShadowView {
+    pub fn perspective(eye: Vec3, axis: Vec3, fov: f32, near: f32, far: f32, map_size: u32) -> Self {
+        let view = look_along(eye, axis);
+        let projection = perspective_reversed(fov, 1.0, near, far);
+        Self {
+            view,
+            projection,
+            view_projection: projection * view,
+            eye,
+            axis,
+            orthographic: false,
+            near,
+            far,
+            texel_scale: 2.0 * (0.5 * fov).tan() / map_size.max(1) as f32,
+        }
+    }
+
+    /// World size of a texel at `p`.
+    pub fn texel_size_at(&self, p: Vec3) -> f32 {
+        if self.orthographic { self.texel_scale } else { self.texel_scale * (p - self.eye).dot(self.axis).max(0.0) }
+    }
+
+    /// Map coordinates `(u, v)` in [0, 1]² (v down) and reversed-Z depth of `p`.
+    pub fn project(&self, p: Vec3) -> Vec3 {
+        let c = self.view_projection * p.extend(1.0);
+        let ndc = c.truncate() / c.w;
+        Vec3::new(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y, ndc.z)
+    }
+}
+
+/// Extra field of view on cube faces so that a filter kernel near a face's edge still reads texels
+/// of that face: `margin` texels on each side.
+fn cube_face_fov(map_size: u32, margin_texels: f32) -> f32 {
+    let s = map_size.max(8) as f32;
+    2.0 * (1.0 + 2.0 * margin_texels / s).atan()
+}
+
+/// The cube face directions in the order of their layers: +X, −X, +Y, −Y, +Z, −Z. A point goes to
+/// the face of the largest component of its direction from the light.
+pub const CUBE_FACES: [Vec3; 6] = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+
+/// The cube face of direction `d` (see [`CUBE_FACES`]).
+pub fn cube_face(d: Vec3) -> usize {
+    let a = d.abs();
+    if a.x >= a.y && a.x >= a.z {
+        if d.x >= 0.0 { 0 } else { 1 }
+    } else if a.y >= a.z {
+        if d.y >= 0.0 { 2 } else { 3 }
+    } else if d.z >= 0.0 {
+        4
+    } else {
+        5
+    }
+}
+
+/// How a light's shadow map covers the scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightFrusta {
+    pub views: Vec<ShadowView>,
+    /// Six views indexed by [`cube_face`]; otherwise one view.
+    pub cube: bool,
+}
+
+impl LightFrusta {
+    /// The view that covers `p`.
+    pub fn view_for(&self, p: Vec3) -> &ShadowView {
+        if self.cube { &self.views[cube_face(p - self.views[0].eye)] } else { &self.views[0] }
+    }
+}
+
+/// Near plane of local light views, as a fraction of the scene diagonal: small enough for casters
+/// close to the light (a lamp's own cord), large enough for depth precision with reversed-Z floats.
+pub const NEAR_FRACTION: f32 = 1.0e-3;
+
+/// Views from a point `eye` that see everything in `bounds` (optionally only within a cone): one
+/// perspective frustum when the bounds or the cone fit in 120°, six cube faces otherwise.
+pub fn point_frusta(eye: Vec3, bounds: &Aabb, cone: Option<(Vec3, f32)>, map_size: u32) -> LightFrusta {
+    point_frusta_with(eye, bounds, cone, map_size, false)
+}
+
+/// [`point_frusta`], optionally forced to six cube faces (so that the samples of an area light all
+/// use the same layout).
+pub fn point_frusta_with(
+    eye: Vec3,
+    bounds: &Aabb,
+    cone: Option<(Vec3, f32)>,
+    map_size: u32,
+    force_cube: bool,
+) -> LightFrusta {
+    let diag = bounds.diagonal().max(1e-3);
+    let far = bounds.corners().iter().map(|c| c.distance(eye)).fold(0.0f32, f32::max).max(diag * 1e-2) * 1.01;
+    let near = (NEAR_FRACTION * diag).min(0.5 * far);
+    let max_half = 60f32.to_radians();
+    // The cone from the eye around the box (when the eye is outside it): a cone narrower than a
+    // hemisphere that holds the 8 corners holds their convex hull, the box.
+    let to_box = (!bounds.contains(eye)).then(|| {
+        let axis = (bounds.center() - eye).normalize_or(Vec3::NEG_Y);
+        let half = bounds
+            .corners()
+            .iter()
+            .map(|&c| axis.dot((c - eye).normalize_or(axis)).clamp(-1.0, 1.0).acos())
+            .fold(0.0f32, f32::max);
+        (axis, half)
+    });
+    // One frustum: aimed at the scene's box when that is the narrower target, else
+    // along the spot's cone; either covers everything the light can shadow.
+    let fits = |half: f32| half <= max_half;
+    let (single, at_box) = match (cone, to_box) {
+        _ if force_cube => (None, false),
+        (Some((_, half)), Some((to_c, s))) if s < half && fits(s) => (Some((to_c, s)), true),
+        (Some((axis, half)), _) if fits(half) => (Some((axis, half)), false),
+        (None, Some((to_c, s))) if fits(s) => (Some((to_c, s)), true),
+        _ => (None, false),
+    };
+    if let Some((axis, half)) = single {
+        // One texel of margin around the cone for filter kernels.
+        let fov = 2.0 * (half.tan() * (1.0 + 2.0 / map_size.max(8) as f32)).atan();
+        // Depth along the axis is linear, so over the box it is smallest at a corner.
+        let box_near = bounds.corners().iter().map(|&c| (c - eye).dot(axis)).fold(f32::INFINITY, f32::min);
+        let near = if at_box { (0.99 * box_near).max(near) } else { near };
+        return LightFrusta { views: vec![ShadowView::perspective(eye, axis, fov, near, far, map_size)], cube: false };
+    }
+    let fov = cube_face_fov(map_size, 4.0);
+    LightFrusta {
+        views: CUBE_FACES.iter().map(|&axis| ShadowView::perspective(eye, axis, fov, near, far, map_size)).collect(),
+        cube: true,
+    }
+}
+
+/// An orthographic view along `direction` fitted to `bounds` (the light-space box of its corners).
+pub fn directional_frustum(direction: Vec3, bounds: &Aabb, map_size: u32) -> LightFrusta {
+    let dir = direction.normalize();
+    let radius = 0.5 * bounds.diagonal().max(1e-3);
+    let eye = bounds.center() - dir * (radius * 1.1);
+    let view = look_along(eye, dir);
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for c in bounds.corners() {
+        let v = view.transform_point3(c);
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    // View space looks down −Z: distances are −z.
+    let (near, far) = ((-hi.z - 0.01 * radius).max(0.0), -lo.z + 0.01 * radius);
+    let pad = 2.0 * (hi.x - lo.x).max(hi.y - lo.y) / map_size.max(8) as f32;
+    let (l, r, b, t) = (lo.x - pad, hi.x + pad, lo.y - pad, hi.y + pad);
+    let projection = orthographic_reversed(l, r, b, t, near, far);
+    LightFrusta {
+        views: vec![ShadowView {
+            view,
+            projection,
+            view_projection: projection * view,
+            eye,
+            axis: dir,
+            orthographic: true,
+            near,
+            far,
+            texel_scale: (r - l).max(t - b) / map_size.max(1) as f32,
+        }],
+        cube: false,
+    }
+}
+
+/// The hard-shadow views of a light's centre (its emitter size ignored): spot lights by their cone,
+/// point and rectangle lights by the scene, directional lights fitted to the scene bounds.
+pub fn light_frusta(light: &Light, bounds: &Aabb, map_size: u32) -> LightFrusta {
+    match light.kind {
+        LightKind::Directional { direction, .. } => directional_frustum(direction, bounds, map_size),
+        LightKind::Spot { position, direction, outer_angle, .. } => {
+            point_frusta(position, bounds, Some((direction, outer_angle)), map_size)
+        }
+        LightKind::Point { position, .. } => point_frusta(position, bounds, None, map_size),
+        LightKind::Rect { position, direction, .. } => {
+            // A one-sided emitter lights a hemisphere.
+            point_frusta(position, bounds, Some((direction, std::f32::consts::FRAC_PI_2)), map_size)
+        }
+    }
+}
+
+/// A frame around a unit vector, for placing samples around a light's axis.
+pub fn frame(axis: Vec3) -> (Vec3, Vec3) {
+    orthonormal_basis(axis)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reversed_z_maps_near_to_one_far_to_zero() {
+        let p = perspective_reversed(1.0, 1.0, 0.5, 100.0);
+        let z = |d: f32| {
+            let c = p * Vec4::new(0.0, 0.0, -d, 1.0);
+            c.z / c.w
+        };
+        assert!((z(0.5) - 1.0).abs() < 1e-6);
+        assert!(z(100.0).abs() < 1e-6);
+        assert!(z(1.0) > z(2.0), "closer is larger");
+        let o = orthographic_reversed(-1.0, 1.0, -1.0, 1.0, 2.0, 10.0);
+        let zo = |d: f32| (o * Vec4::new(0.0, 0.0, -d, 1.0)).z;
+        assert!((zo(2.0) - 1.0).abs() < 1e-6 && zo(10.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn cube_faces_cover_their_directions() {
+        let b = Aabb::new(Vec3::splat(-5.0), Vec3::splat(5.0));
+        let f = point_frusta(Vec3::ZERO, &b, None, 512);
+        assert!(f.cube && f.views.len() == 6);
+        for d in [Vec3::new(1.0, 0.99, -0.99), Vec3::new(-0.2, -3.0, 2.9), Vec3::new(0.1, 0.2, 4.0)] {
+            let uvz = f.view_for(d).project(d);
+            assert!(uvz.x > 0.0 && uvz.x < 1.0 && uvz.y > 0.0 && uvz.y < 1.0, "{d} → {uvz}");
+            assert!(uvz.z > 0.0 && uvz.z < 1.0);
+        }
+    }
+
+    #[test]
+    fn outside_light_gets_one_frustum_covering_the_bounds() {
+        let b = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 1.0, 2.0));
+        // On the axis and off it: the near plane must not cut the box's corners (depth along the
+        // tilted axis can be smaller than the distance to the box).
+        for eye in [Vec3::new(0.0, 3.0, 0.0), Vec3::new(0.22, 3.0, 0.22), Vec3::new(0.5, 4.0, -0.3)] {
+            let f = point_frusta(eye, &b, Some((-Vec3::Y, std::f32::consts::FRAC_PI_2)), 1024);
+            assert!(!f.cube);
+            for c in b.corners() {
+                let uvz = f.views[0].project(c);
+                assert!((0.0..=1.0).contains(&uvz.x) && (0.0..=1.0).contains(&uvz.y), "{eye}: {c} → {uvz}");
+                assert!(uvz.z >= 0.0 && uvz.z <= 1.0, "{eye}: {c} → {uvz}");
+            }
+        }
+    }
+
+    #[test]
+    fn directional_fit_contains_the_bounds() {
+        let b = Aabb::new(Vec3::new(-400.0, -30.0, -400.0), Vec3::new(400.0, 80.0, 400.0));
+        let f = directional_frustum(Vec3::new(0.8, -0.5, 0.4), &b, 2048);
+        let v = &f.views[0];
+        for c in b.corners() {
+            let uvz = v.project(c);
+            assert!(
+                (0.0..=1.0).contains(&uvz.x) && (0.0..=1.0).contains(&uvz.y) && (0.0..=1.0).contains(&uvz.z),
+                "{uvz}"
+            );
+        }
+        // A point further along the light direction is deeper (smaller reversed depth).
+        let p = Vec3::ZERO;
+        assert!(v.project(p).z > v.project(p + 10.0 * Vec3::new(0.8, -0.5, 0.4).normalize()).z);
+        assert!((v.texel_size_at(p) - v.texel_scale).abs() < 1e-6);
+    }
+
+    #[test]
+    fn spot_cone_is_used_when_narrower_than_the_scene() {
+        let b = Aabb::new(Vec3::splat(-5.0), Vec3::splat(5.0));
+        let f = point_frusta(Vec3::new(0.0, 4.0, 0.0), &b, Some((-Vec3::Y, 0.5)), 256);
+        assert!(!f.cube);
+        assert!((f.views[0].axis - -Vec3::Y).length() < 1e-6);
+        // Texel size grows with distance along the axis.
+        let v = &f.views[0];
+        assert!(v.texel_size_at(Vec3::new(0.0, -4.0, 0.0)) > 1.9 * v.texel_size_at(Vec3::ZERO));
+    }
+}

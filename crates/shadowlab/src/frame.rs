@@ -1,0 +1,151 @@
+//! What a shadow technique reads and writes each frame: the camera, the surface (depth and normal
+//! buffers, ours or the application's), the light, and one visibility layer per light.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3, Vec4};
+use shadowlab_core::{Light, LightKind, View};
+
+/// The camera as shaders see it (`shaders/common.wgsl`, `struct Camera`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct CameraUniform {
+    pub view_proj: Mat4,
+    pub inv_view_proj_rel: Mat4,
+    pub position: Vec4,
+    pub size: Vec4,
+    pub depth: Vec4,
+}
+
+impl CameraUniform {
+    /// From view and projection matrices (any convention wgpu accepts): `reversed_z` says whether the
+    /// background (cleared) depth is 0 (reversed) or 1 (standard).
+    pub fn new(view: Mat4, projection: Mat4, width: u32, height: u32, reversed_z: bool) -> Self {
+        let eye = view.inverse().w_axis.truncate();
+        // The view without its translation: positions relative to the eye stay small and precise.
+        let rotation = Mat4::from_mat3(glam::Mat3::from_mat4(view));
+        Self {
+            view_proj: projection * view,
+            inv_view_proj_rel: (projection * rotation).inverse(),
+            position: eye.extend(1.0),
+            size: Vec4::new(width as f32, height as f32, 1.0 / width as f32, 1.0 / height as f32),
+            depth: Vec4::new(if reversed_z { 0.0 } else { 1.0 }, 0.0, 0.0, 0.0),
+        }
+    }
+
+    /// A shadowlab view rendered at `width × height` (reversed Z).
+    pub fn from_view(view: &View, width: u32, height: u32) -> Self {
+        Self::new(view.view_matrix(), view.projection(width as f32 / height.max(1) as f32), width, height, true)
+    }
+}
+
+/// A light as shaders see it (`shaders/lights.wgsl`, `struct Light`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct LightUniform {
+    pub position: Vec4,
+    pub direction: Vec4,
+    pub color: Vec4,
+    pub cone: Vec4,
+    pub tangent: Vec4,
+}
+
+impl LightUniform {
+    pub fn new(light: &Light) -> Self {
+        let rgb = light.color * light.intensity;
+        let range = light.range.unwrap_or(0.0);
+        let (kind, position, direction, size, cone, tangent) = match light.kind {
+            LightKind::Point { position, radius } => (0.0, position, Vec3::ZERO, radius, Vec4::ZERO, Vec3::ZERO),
+            LightKind::Spot { position, direction, inner_angle, outer_angle, radius } => (
+                1.0,
+                position,
+                direction,
+                radius,
+                Vec4::new(inner_angle.cos(), outer_angle.cos(), 0.0, 0.0),
+                Vec3::ZERO,
+            ),
+            LightKind::Directional { direction, angular_radius } => {
+                (2.0, Vec3::ZERO, direction, angular_radius, Vec4::ZERO, Vec3::ZERO)
+            }
+            LightKind::Rect { position, direction, tangent, width, height } => {
+                (3.0, position, direction, 0.0, Vec4::new(0.0, 0.0, width, height), tangent)
+            }
+        };
+        Self {
+            position: position.extend(kind),
+            direction: direction.extend(range),
+            color: rgb.extend(size),
+            cone,
+            tangent: tangent.extend(0.0),
+        }
+    }
+}
+
+/// The per-pixel surface a technique shadows: a depth buffer, a world-space normal buffer and the
+/// camera that made them. The renderer's own G-buffer provides one; an application embedding
+/// shadowlab builds one from its own buffers with [`SurfaceInputs::new`].
+///
+/// Requirements: `depth` is a depth texture view (depth aspect only) of size `width × height`;
+/// `normal` is a float texture (e.g. `Rgba16Float`) whose `xyz` is the unit world-space normal
+/// facing the camera.
+pub struct SurfaceInputs {
+    pub width: u32,
+    pub height: u32,
+    pub depth: wgpu::TextureView,
+    pub normal: wgpu::TextureView,
+    pub camera: CameraUniform,
+    pub camera_buffer: wgpu::Buffer,
+}
+
+impl SurfaceInputs {
+    pub fn new(
+        device: &wgpu::Device,
+        depth: wgpu::TextureView,
+        normal: wgpu::TextureView,
+        camera: CameraUniform,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let camera_buffer = crate::util::uniform_buffer(device, "camera", bytemuck::bytes_of(&camera));
+        Self { width, height, depth, normal, camera, camera_buffer }
+    }
+
+    /// Updates the camera (after the application moved it).
+    pub fn set_camera(&mut self, queue: &wgpu::Queue, camera: CameraUniform) {
+        self.camera = camera;
+        queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(&camera));
+    }
+}
+
+/// Format of visibility layers: one float per pixel, exact enough for metrics.
+pub const VISIBILITY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+
+/// One light's visibility V_l for every pixel (DESIGN.md §2): the only thing a technique produces.
+pub struct VisibilityLayer {
+    pub texture: wgpu::Texture,
+    pub view: wgpu::TextureView,
+}
+
+impl VisibilityLayer {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32, label: &str) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: VISIBILITY_FORMAT,
+            usage: wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        Self { texture, view }
+    }
+
+    pub fn bytes(&self) -> u64 {
+        let s = self.texture.size();
+        u64::from(s.width) * u64::from(s.height) * 4
+    }
+}

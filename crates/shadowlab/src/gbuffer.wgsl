@@ -1,0 +1,58 @@
+// G-buffer pass: world normal (+ shininess), albedo (+ specular strength), emission; reversed-Z depth.
+
+// #include "common.wgsl"
+
+@group(0) @binding(0) var<uniform> camera: Camera;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) model0: vec4<f32>,
+    @location(3) model1: vec4<f32>,
+    @location(4) model2: vec4<f32>,
+    @location(5) model3: vec4<f32>,
+    @location(6) normal0: vec4<f32>,
+    @location(7) normal1: vec4<f32>,
+    @location(8) normal2: vec4<f32>,
+    @location(9) albedo_specular: vec4<f32>,
+    @location(10) material: vec4<f32>,
+};
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) albedo_specular: vec4<f32>,
+    @location(2) material: vec4<f32>,
+};
+
+@vertex
+fn vs_main(v: VertexIn) -> VertexOut {
+    let model = mat4x4<f32>(v.model0, v.model1, v.model2, v.model3);
+    let normal_matrix = mat3x3<f32>(v.normal0.xyz, v.normal1.xyz, v.normal2.xyz);
+    var out: VertexOut;
+    out.clip = camera.view_proj * (model * vec4<f32>(v.position, 1.0));
+    out.normal = normal_matrix * v.normal;
+    out.albedo_specular = v.albedo_specular;
+    out.material = v.material;
+    return out;
+}
+
+struct GBufferOut {
+    @location(0) normal: vec4<f32>,
+    @location(1) albedo: vec4<f32>,
+    @location(2) emissive: vec4<f32>,
+};
+
+@fragment
+fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> GBufferOut {
+    var n = normalize(in.normal);
+    // Only double-sided surfaces show their back (single-sided backs are culled): face the viewer.
+    if (!front) {
+        n = -n;
+    }
+    var out: GBufferOut;
+    out.normal = vec4<f32>(n, in.material.x);
+    out.albedo = in.albedo_specular;
+    out.emissive = vec4<f32>(in.material.yzw, 1.0);
+    return out;
+}

@@ -1,0 +1,182 @@
+//! The wgpu device shadowlab renders with: found headless by [`Gpu::new`] or handed in by an
+//! application with [`Gpu::from_device`].
+
+use std::fmt;
+
+/// Which backend to look for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BackendChoice {
+    /// A real GPU (Vulkan, Metal, DX12) first, then Vulkan on the CPU (Mesa lavapipe), then GL.
+    #[default]
+    Auto,
+    Vulkan,
+    Gl,
+}
+
+impl BackendChoice {
+    pub fn parse(text: &str) -> Option<Self> {
+        match text {
+            "auto" => Some(Self::Auto),
+            "vulkan" => Some(Self::Vulkan),
+            "gl" => Some(Self::Gl),
+            _ => None,
+        }
+    }
+}
+
+/// Failure to find or open a GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error(
+        "no {wanted} adapter found. On Linux without a GPU install Mesa's CPU drivers: \
+         `apt-get install mesa-vulkan-drivers` (Vulkan, lavapipe) or `libgl1-mesa-dri libegl1` (GL, llvmpipe)"
+    )]
+    NoAdapter { wanted: &'static str },
+    #[error("the GPU device was lost: {0}")]
+    Lost(String),
+    #[error("the adapter '{adapter}' refused a device: {source}")]
+    Device {
+        adapter: String,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+}
+
+/// What the reports say about the adapter.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AdapterSummary {
+    pub name: String,
+    /// `vulkan`, `gl`, `metal`, `dx12`, `webgpu`.
+    pub backend: String,
+    /// `discrete`, `integrated`, `virtual`, `cpu`, `other`.
+    pub device_type: String,
+    pub driver: String,
+}
+
+impl fmt::Display for AdapterSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} ({}, {})", self.name, self.backend, self.device_type)
+    }
+}
+
+impl From<&wgpu::AdapterInfo> for AdapterSummary {
+    fn from(info: &wgpu::AdapterInfo) -> Self {
+        let backend = match info.backend {
+            wgpu::Backend::Vulkan => "vulkan",
+            wgpu::Backend::Gl => "gl",
+            wgpu::Backend::Metal => "metal",
+            wgpu::Backend::Dx12 => "dx12",
+            wgpu::Backend::BrowserWebGpu => "webgpu",
+            _ => "other",
+        };
+        let device_type = match info.device_type {
+            wgpu::DeviceType::DiscreteGpu => "discrete",
+            wgpu::DeviceType::IntegratedGpu => "integrated",
+            wgpu::DeviceType::VirtualGpu => "virtual",
+            wgpu::DeviceType::Cpu => "cpu",
+            wgpu::DeviceType::Other => "other",
+        };
+        Self {
+            name: info.name.clone(),
+            backend: backend.to_owned(),
+            device_type: device_type.to_owned(),
+            driver: format!("{} {}", info.driver, info.driver_info).trim().to_owned(),
+        }
+    }
+}
+
+/// A device and queue, and what they can do.
+#[derive(Debug, Clone)]
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter: AdapterSummary,
+    pub info: wgpu::AdapterInfo,
+    /// Timestamp queries around passes are available (GPU timing per pass).
+    pub timestamps: bool,
+}
+
+/// Features shadowlab uses when the adapter has them; none is required.
+fn wanted_features() -> wgpu::Features {
+    wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::DEPTH_CLIP_CONTROL | wgpu::Features::DEPTH32FLOAT_STENCIL8
+}
+
+impl Gpu {
+    /// Finds an adapter by `choice` and opens a device on it (blocking).
+    pub fn new(choice: BackendChoice) -> Result<Self, GpuError> {
+        pollster::block_on(Self::new_async(choice))
+    }
+
+    pub async fn new_async(choice: BackendChoice) -> Result<Self, GpuError> {
+        let backends = match choice {
+            BackendChoice::Auto => wgpu::Backends::PRIMARY | wgpu::Backends::GL,
+            BackendChoice::Vulkan => wgpu::Backends::VULKAN,
+            BackendChoice::Gl => wgpu::Backends::GL,
+        };
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let adapters = instance.enumerate_adapters(backends).await;
+        // Rank: real GPUs first, then the CPU Vulkan driver, then GL; within a rank keep wgpu's order.
+        let rank = |a: &wgpu::Adapter| {
+            let info = a.get_info();
+            let real = matches!(
+                info.device_type,
+                wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu | wgpu::DeviceType::VirtualGpu
+            );
+            match (info.backend, real) {
+                (wgpu::Backend::Gl, true) => 2,
+                (wgpu::Backend::Gl, false) => 3,
+                (_, true) => {
+                    if info.device_type == wgpu::DeviceType::DiscreteGpu {
+                        0
+                    } else {
+                        1
+                    }
+                }
+                (_, false) => 2,
+            }
+        };
+        let adapter = adapters.into_iter().min_by_key(rank).ok_or(GpuError::NoAdapter {
+            wanted: match choice {
+                BackendChoice::Auto => "GPU, Vulkan or GL",
+                BackendChoice::Vulkan => "Vulkan",
+                BackendChoice::Gl => "GL",
+            },
+        })?;
+        let info = adapter.get_info();
+        let features = adapter.features() & wanted_features();
+        let mut limits = wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits());
+        // Shadow maps want large textures and many array layers (cube faces, cascades, samples).
+        let al = adapter.limits();
+        limits.max_texture_dimension_2d = al.max_texture_dimension_2d;
+        limits.max_texture_array_layers = al.max_texture_array_layers;
+        limits.max_storage_buffer_binding_size = al.max_storage_buffer_binding_size;
+        limits.max_buffer_size = al.max_buffer_size;
+        limits.max_compute_workgroup_storage_size = al.max_compute_workgroup_storage_size;
+        limits.max_storage_buffers_per_shader_stage = al.max_storage_buffers_per_shader_stage.min(8);
+        limits.max_storage_textures_per_shader_stage = al.max_storage_textures_per_shader_stage.min(4);
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("shadowlab"),
+                required_features: features,
+                required_limits: limits,
+                ..Default::default()
+            })
+            .await
+            .map_err(|source| GpuError::Device { adapter: info.name.clone(), source })?;
+        Ok(Self::from_device(device, queue, &info))
+    }
+
+    /// Uses an application's own device and queue (how shadowlab is embedded).
+    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, info: &wgpu::AdapterInfo) -> Self {
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        Self { device, queue, adapter: AdapterSummary::from(info), info: info.clone(), timestamps }
+    }
+
+    /// Blocks until all submitted work has finished.
+    pub fn wait(&self) {
+        // A poll error means the device was lost; the next use reports it.
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+}

@@ -1,0 +1,678 @@
+//! The deferred frame of DESIGN.md §2: G-buffer, shadows per light (a technique each), additive
+//! lighting and tone mapping, with readbacks for the reference and the reports.
+//!
+//! [`Shadows`] is the part an application embeds: it needs only a [`SurfaceInputs`] (depth,
+//! normals, camera) and produces a [`VisibilityLayer`] per light. [`Renderer`] wraps it with
+//! shadowlab's own G-buffer and lighting.
+
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+use shadowlab_core::{LightId, Scene, SurfaceBuffer, View};
+
+use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VisibilityLayer};
+use crate::gpu::{Gpu, GpuError};
+use crate::gpu_scene::{GpuScene, INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
+use crate::technique::{FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueSpec, TechniqueStats};
+use crate::timing::{FrameTimes, GpuTimer, PassKind};
+use crate::util;
+
+/// One light's shadowing: its technique and its visibility layer.
+pub struct LightShadow {
+    pub light: LightId,
+    pub spec: String,
+    pub technique: Box<dyn ShadowTechnique>,
+    pub layer: VisibilityLayer,
+    pub light_buffer: wgpu::Buffer,
+}
+
+/// Shadows for every light of a scene over one surface: what an application embeds.
+pub struct Shadows {
+    pub shared: Shared,
+    pub gpu_scene: GpuScene,
+    pub scene: Scene,
+    pub lights: Vec<LightShadow>,
+    frame_index: u64,
+}
+
+impl Shadows {
+    /// Uploads the scene. No light is shadowed until [`Shadows::set_technique`].
+    pub fn new(gpu: &Gpu, scene: Scene) -> Self {
+        let shared = Shared::new(gpu);
+        let gpu_scene = GpuScene::new(&gpu.device, &scene);
+        Self { shared, gpu_scene, scene, lights: Vec::new(), frame_index: 0 }
+    }
+
+    /// Shadows `light` with the technique of `spec` (replacing its previous one), writing a layer
+    /// of `width × height`.
+    pub fn set_technique(
+        &mut self,
+        light: LightId,
+        spec: &TechniqueSpec,
+        width: u32,
+        height: u32,
+    ) -> Result<(), TechniqueError> {
+        let l = self.scene.lights.get(light.index()).ok_or_else(|| TechniqueError::Failed {
+            id: spec.info.id.to_owned(),
+            message: format!("no light {}", light.0),
+        })?;
+        let technique = spec.create(&self.shared, l)?;
+        let device = &self.shared.gpu.device;
+        let light_buffer = util::uniform_buffer(device, &l.name, bytemuck::bytes_of(&LightUniform::new(l)));
+        let layer = VisibilityLayer::new(device, width, height, &format!("visibility {}", l.name));
+        self.lights.retain(|s| s.light != light);
+        self.lights.push(LightShadow { light, spec: spec.spec.clone(), technique, layer, light_buffer });
+        self.lights.sort_by_key(|s| s.light);
+        Ok(())
+    }
+
+    /// Records every light's prepare and resolve into `encoder`.
+    pub fn record(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        surface: &SurfaceInputs,
+        timer: &mut GpuTimer,
+    ) -> Result<(), TechniqueError> {
+        let gpu = self.shared.gpu.clone();
+        for s in &mut self.lights {
+            let mut ctx = FrameContext {
+                gpu: &gpu,
+                shared: &self.shared,
+                encoder,
+                scene: &self.scene,
+                gpu_scene: &self.gpu_scene,
+                surface,
+                light: &self.scene.lights[s.light.index()],
+                light_id: s.light,
+                light_buffer: &s.light_buffer,
+                timer,
+                frame_index: self.frame_index,
+            };
+            s.technique.prepare(&mut ctx)?;
+            s.technique.resolve(&mut ctx, &s.layer);
+        }
+        self.frame_index += 1;
+        Ok(())
+    }
+
+    /// Memory, passes and draws of all techniques together.
+    pub fn stats(&self) -> TechniqueStats {
+        self.lights.iter().fold(TechniqueStats::default(), |a, s| {
+            let t = s.technique.stats();
+            TechniqueStats {
+                memory_bytes: a.memory_bytes + t.memory_bytes + s.layer.bytes(),
+                passes: a.passes + t.passes,
+                draws: a.draws + t.draws,
+                triangles: a.triangles + t.triangles,
+            }
+        })
+    }
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct EnvironmentUniform {
+    ambient: Vec4,
+    background: Vec4,
+}
+
+const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+const EMISSIVE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The final image.
+pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+const BACKGROUND: Vec3 = Vec3::new(0.018, 0.022, 0.03);
+
+fn target(
+    device: &wgpu::Device,
+    label: &str,
+    format: wgpu::TextureFormat,
+    w: u32,
+    h: u32,
+    extra: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | extra,
+        view_formats: &[],
+    })
+}
+
+/// Timings of one rendered frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameReport {
+    /// GPU milliseconds per pass kind, when the adapter has timestamp queries.
+    pub gpu: Option<FrameTimes>,
+    /// Wall-clock milliseconds from recording to the GPU being done (includes CPU recording).
+    pub cpu_ms: f64,
+}
+
+/// The full deferred renderer: G-buffer, [`Shadows`], lighting, tone mapping.
+pub struct Renderer {
+    pub gpu: Gpu,
+    pub shadows: Shadows,
+    pub width: u32,
+    pub height: u32,
+    pub surface: SurfaceInputs,
+    depth: wgpu::Texture,
+    normal: wgpu::Texture,
+    albedo: wgpu::Texture,
+    emissive: wgpu::Texture,
+    hdr: wgpu::Texture,
+    output: wgpu::Texture,
+    environment: wgpu::Buffer,
+    lighting_group: wgpu::BindGroup,
+    tonemap_group: wgpu::BindGroup,
+    light_layout: wgpu::BindGroupLayout,
+    timer: GpuTimer,
+    pub exposure: f32,
+}
+
+impl Renderer {
+    pub fn new(gpu: &Gpu, scene: Scene, view: &View, width: u32, height: u32) -> Self {
+        let device = &gpu.device;
+        let depth = target(device, "depth", DEPTH_FORMAT, width, height, wgpu::TextureUsages::empty());
+        let normal = target(device, "normal", NORMAL_FORMAT, width, height, wgpu::TextureUsages::empty());
+        let albedo = target(device, "albedo", ALBEDO_FORMAT, width, height, wgpu::TextureUsages::empty());
+        let emissive = target(device, "emissive", EMISSIVE_FORMAT, width, height, wgpu::TextureUsages::empty());
+        let hdr = target(device, "hdr", HDR_FORMAT, width, height, wgpu::TextureUsages::empty());
+        let output = target(device, "output", OUTPUT_FORMAT, width, height, wgpu::TextureUsages::COPY_SRC);
+        let surface = SurfaceInputs::new(
+            device,
+            depth.create_view(&Default::default()),
+            normal.create_view(&Default::default()),
+            CameraUniform::from_view(view, width, height),
+            width,
+            height,
+        );
+        let environment = util::uniform_buffer(
+            device,
+            "environment",
+            bytemuck::bytes_of(&EnvironmentUniform {
+                ambient: scene.ambient.extend(1.0),
+                background: BACKGROUND.extend(1.0),
+            }),
+        );
+        let shadows = Shadows::new(gpu, scene);
+        let layouts = lighting_layouts(&shadows.shared);
+        let view_of = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let lighting_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("lighting"),
+            layout: &layouts.0,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: surface.camera_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&surface.depth) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&surface.normal) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&view_of(&albedo)) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&view_of(&emissive)) },
+                wgpu::BindGroupEntry { binding: 5, resource: environment.as_entire_binding() },
+            ],
+        });
+        let tonemap_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("tonemap"),
+            layout: &layouts.2,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&view_of(&hdr)),
+            }],
+        });
+        Self {
+            gpu: gpu.clone(),
+            timer: GpuTimer::new(gpu),
+            shadows,
+            width,
+            height,
+            surface,
+            depth,
+            normal,
+            albedo,
+            emissive,
+            hdr,
+            output,
+            environment,
+            lighting_group,
+            tonemap_group,
+            light_layout: layouts.1,
+            exposure: 1.0,
+        }
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.shadows.scene
+    }
+
+    pub fn set_view(&mut self, view: &View) {
+        self.surface.set_camera(&self.gpu.queue, CameraUniform::from_view(view, self.width, self.height));
+    }
+
+    /// Shadows `light` with `spec`.
+    pub fn set_technique(&mut self, light: LightId, spec: &TechniqueSpec) -> Result<(), TechniqueError> {
+        self.shadows.set_technique(light, spec, self.width, self.height)
+    }
+
+    /// Renders one frame and waits for it; returns its timings.
+    pub fn render(&mut self) -> Result<FrameReport, TechniqueError> {
+        let start = Instant::now();
+        self.timer.begin_frame();
+        let device = self.gpu.device.clone();
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        self.gbuffer_pass(&mut encoder);
+        self.shadows.record(&mut encoder, &self.surface, &mut self.timer)?;
+        self.lighting_passes(&mut encoder, None);
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.wait();
+        let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        let gpu = self
+            .timer
+            .read(&self.gpu)
+            .map_err(|e| TechniqueError::Failed { id: "frame".into(), message: e.to_string() })?;
+        Ok(FrameReport { gpu, cpu_ms })
+    }
+
+    fn gbuffer_pass(&mut self, encoder: &mut wgpu::CommandEncoder) {
+        let shared = &self.shadows.shared;
+        let timestamps = self.timer.render_pass(&self.gpu.device, PassKind::Gbuffer);
+        let views = [&self.normal, &self.albedo, &self.emissive].map(|t| t.create_view(&Default::default()));
+        let clear = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let depth_view = self.depth.create_view(&Default::default());
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("g-buffer"),
+            color_attachments: &[clear(&views[0]), clear(&views[1]), clear(&views[2])],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        let camera_group = gbuffer_camera_group(shared, &self.surface.camera_buffer);
+        let gpu_scene = &self.shadows.gpu_scene;
+        gpu_scene.bind(&mut pass);
+        pass.set_bind_group(0, Some(&camera_group), &[]);
+        for g in &gpu_scene.groups {
+            // Single-sided surfaces are seen from the front only; double-sided from both sides.
+            let cull = if g.sidedness == Sidedness::DoubleSided { None } else { Some(wgpu::Face::Back) };
+            pass.set_pipeline(&gbuffer_pipeline(shared, cull, g.mirrored));
+            gpu_scene.draw(&mut pass, std::iter::once(g));
+        }
+    }
+
+    /// Base pass, one additive pass per light, tone mapping. With `override_layers`, lights use
+    /// those layers instead of their techniques' (to light the frame with reference visibility).
+    fn lighting_passes(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        override_layers: Option<&[(LightId, VisibilityLayer)]>,
+    ) {
+        let shared = &self.shadows.shared;
+        let device = &self.gpu.device;
+        let hdr_view = self.hdr.create_view(&Default::default());
+        let timestamps = self.timer.render_pass(device, PassKind::Lighting);
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("lighting"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: timestamps,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, Some(&self.lighting_group), &[]);
+            pass.set_pipeline(&lighting_pipeline(shared, "fs_base", false));
+            pass.draw(0..3, 0..1);
+            pass.set_pipeline(&lighting_pipeline(shared, "fs_light", true));
+            for s in &self.shadows.lights {
+                let layer = match override_layers {
+                    Some(list) => match list.iter().find(|(id, _)| *id == s.light) {
+                        Some((_, l)) => l,
+                        None => continue,
+                    },
+                    None => &s.layer,
+                };
+                let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("light"),
+                    layout: &self.light_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: s.light_buffer.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&layer.view) },
+                    ],
+                });
+                pass.set_bind_group(1, Some(&group), &[]);
+                pass.draw(0..3, 0..1);
+            }
+        }
+        let output_view = self.output.create_view(&Default::default());
+        let timestamps = self.timer.render_pass(device, PassKind::Lighting);
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("tone mapping"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &output_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        self.gpu.queue.write_buffer(
+            &self.environment,
+            0,
+            bytemuck::bytes_of(&EnvironmentUniform {
+                ambient: self.shadows.scene.ambient.extend(self.exposure),
+                background: BACKGROUND.extend(1.0),
+            }),
+        );
+        pass.set_pipeline(&tonemap_pipeline(shared));
+        pass.set_bind_group(0, Some(&self.lighting_group), &[]);
+        pass.set_bind_group(2, Some(&self.tonemap_group), &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// The final image as tightly packed sRGB RGB bytes.
+    pub fn read_image(&self) -> Result<Vec<u8>, GpuError> {
+        let rgba = util::read_texture(&self.gpu.device, &self.gpu.queue, &self.output, 4)?;
+        Ok(rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
+    /// A light's visibility layer as floats (row-major, top row first).
+    pub fn read_visibility(&self, light: LightId) -> Result<Option<Vec<f32>>, GpuError> {
+        match self.shadows.lights.iter().find(|s| s.light == light) {
+            Some(s) => {
+                Ok(Some(util::f32s(&util::read_texture(&self.gpu.device, &self.gpu.queue, &s.layer.texture, 4)?)))
+            }
+            None => Ok(None),
+        }
+    }
+
+    /// The surface the techniques shade: world positions reconstructed from depth exactly as
+    /// their shaders do, and the G-buffer normals.
+    pub fn read_surface(&self) -> Result<SurfaceBuffer, GpuError> {
+        let device = &self.gpu.device;
+        let n = u64::from(self.width) * u64::from(self.height);
+        let make = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: n * 16,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let (positions, normals) = (make("positions"), make("normals"));
+        let shared = &self.shadows.shared;
+        let pipeline = shared.compute_pipeline("export surface", || {
+            let module = crate::shader::module(device, "export surface", include_str!("export_surface.wgsl"));
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("export surface"),
+                layout: None,
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("export surface"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.surface.camera_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&self.surface.depth) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&self.surface.normal) },
+                wgpu::BindGroupEntry { binding: 3, resource: positions.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: normals.as_entire_binding() },
+            ],
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, Some(&group), &[]);
+            pass.dispatch_workgroups(util::groups(self.width, 8), util::groups(self.height, 8), 1);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        let p = util::f32s(&util::read_buffer(device, &self.gpu.queue, &positions)?);
+        let nn = util::f32s(&util::read_buffer(device, &self.gpu.queue, &normals)?);
+        let mut out = SurfaceBuffer::new(self.width, self.height);
+        for i in 0..n as usize {
+            out.covered[i] = p[4 * i + 3] > 0.5;
+            out.positions[i] = Vec3::new(p[4 * i], p[4 * i + 1], p[4 * i + 2]);
+            out.normals[i] = Vec3::new(nn[4 * i], nn[4 * i + 1], nn[4 * i + 2]).normalize_or(Vec3::Y);
+        }
+        Ok(out)
+    }
+
+    /// Relights the current G-buffer with the given visibility per light (NaN counts as 1) and
+    /// returns the image: how the frame looks with, say, the reference's shadows.
+    pub fn image_with_visibility(&mut self, layers: &[(LightId, &[f32])]) -> Result<Vec<u8>, GpuError> {
+        let device = self.gpu.device.clone();
+        let uploaded: Vec<(LightId, VisibilityLayer)> = layers
+            .iter()
+            .map(|(id, values)| {
+                let layer = VisibilityLayer::new(&device, self.width, self.height, "override");
+                let clean: Vec<f32> = values.iter().map(|v| if v.is_nan() { 1.0 } else { *v }).collect();
+                self.gpu.queue.write_texture(
+                    layer.texture.as_image_copy(),
+                    bytemuck::cast_slice(&clean),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(4 * self.width),
+                        rows_per_image: Some(self.height),
+                    },
+                    layer.texture.size(),
+                );
+                (*id, layer)
+            })
+            .collect();
+        self.timer.begin_frame();
+        let mut encoder = device.create_command_encoder(&Default::default());
+        self.lighting_passes(&mut encoder, Some(&uploaded));
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.wait();
+        self.read_image()
+    }
+}
+
+fn lighting_layouts(shared: &Shared) -> (wgpu::BindGroupLayout, wgpu::BindGroupLayout, wgpu::BindGroupLayout) {
+    let device = &shared.gpu.device;
+    let tex = |binding, sample_type| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let float = wgpu::TextureSampleType::Float { filterable: false };
+    let frag = wgpu::ShaderStages::FRAGMENT;
+    let g0 = shared.layout("lighting group 0", || {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lighting group 0"),
+            entries: &[
+                crate::technique::uniform_entry(0, frag),
+                tex(1, float),
+                tex(2, float),
+                tex(3, float),
+                tex(4, float),
+                crate::technique::uniform_entry(5, frag),
+            ],
+        })
+    });
+    let g1 = shared.layout("lighting group 1", || {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lighting group 1"),
+            entries: &[crate::technique::uniform_entry(0, frag), tex(1, float)],
+        })
+    });
+    let g2 = shared.layout("lighting group 2", || {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lighting group 2"),
+            entries: &[tex(0, float)],
+        })
+    });
+    (g0, g1, g2)
+}
+
+fn lighting_pipeline(shared: &Shared, entry: &str, additive: bool) -> wgpu::RenderPipeline {
+    let key = format!("lighting {entry}");
+    shared.render_pipeline(&key, || {
+        let device = &shared.gpu.device;
+        let (g0, g1, g2) = lighting_layouts(shared);
+        let _ = g2;
+        // The base pass reads group 0 only; light passes groups 0 and 1.
+        let groups: &[Option<&wgpu::BindGroupLayout>] = if additive { &[Some(&g0), Some(&g1)] } else { &[Some(&g0)] };
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(&key),
+            bind_group_layouts: groups,
+            immediate_size: 0,
+        });
+        let module = crate::shader::module(device, "lighting", include_str!("lighting.wgsl"));
+        let blend = additive.then_some(wgpu::BlendState {
+            color: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::One,
+                dst_factor: wgpu::BlendFactor::One,
+                operation: wgpu::BlendOperation::Add,
+            },
+            alpha: wgpu::BlendComponent::REPLACE,
+        });
+        fullscreen_pipeline(device, &key, &layout, &module, entry, HDR_FORMAT, blend)
+    })
+}
+
+fn tonemap_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
+    shared.render_pipeline("tonemap", || {
+        let device = &shared.gpu.device;
+        let (g0, _, g2) = lighting_layouts(shared);
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tonemap"),
+            bind_group_layouts: &[Some(&g0), None, Some(&g2)],
+            immediate_size: 0,
+        });
+        let module = crate::shader::module(device, "lighting", include_str!("lighting.wgsl"));
+        fullscreen_pipeline(device, "tonemap", &layout, &module, "fs_tonemap", OUTPUT_FORMAT, None)
+    })
+}
+
+fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    format: wgpu::TextureFormat,
+    blend: Option<wgpu::BlendState>,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: Default::default(),
+        depth_stencil: None,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+fn gbuffer_camera_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("gbuffer camera", || {
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gbuffer camera"),
+            entries: &[crate::technique::uniform_entry(0, wgpu::ShaderStages::VERTEX)],
+        })
+    })
+}
+
+fn gbuffer_camera_group(shared: &Shared, camera: &wgpu::Buffer) -> wgpu::BindGroup {
+    shared.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("gbuffer camera"),
+        layout: &gbuffer_camera_layout(shared),
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: camera.as_entire_binding() }],
+    })
+}
+
+fn gbuffer_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool) -> wgpu::RenderPipeline {
+    let key = format!("gbuffer {cull:?} mirrored={mirrored}");
+    shared.render_pipeline(&key, || {
+        let device = &shared.gpu.device;
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("gbuffer"),
+            bind_group_layouts: &[Some(&gbuffer_camera_layout(shared))],
+            immediate_size: 0,
+        });
+        let module = crate::shader::module(device, "gbuffer", include_str!("gbuffer.wgsl"));
+        let color = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(&key),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: cull,
+                front_face: if mirrored { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[color(NORMAL_FORMAT), color(ALBEDO_FORMAT), color(EMISSIVE_FORMAT)],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    })
+}

@@ -1,0 +1,68 @@
+//! WGSL composition: shared code lives in `src/shaders/` and is included, never copied.
+//!
+//! WGSL has no include mechanism, so a line `// #include "name.wgsl"` is replaced by the shared
+//! module of that name (each included once per shader, in order). The directive is a comment, so
+//! every file stays valid WGSL for editors and validators.
+
+/// The shared modules, by the name used in `#include` lines.
+const SHARED: &[(&str, &str)] = &[
+    ("common.wgsl", include_str!("shaders/common.wgsl")),
+    ("lights.wgsl", include_str!("shaders/lights.wgsl")),
+    ("shadowmap.wgsl", include_str!("shaders/shadowmap.wgsl")),
+    ("resolve.wgsl", include_str!("shaders/resolve.wgsl")),
+    ("maplookup.wgsl", include_str!("shaders/maplookup.wgsl")),
+];
+
+/// Expands `// #include "name"` directives. Panics on an unknown include: shaders are compiled into
+/// the binary, so that is a programming error caught by the tests, never user input.
+pub fn compose(source: &str) -> String {
+    let mut out = String::with_capacity(source.len() * 2);
+    let mut seen: Vec<&str> = Vec::new();
+    expand(source, &mut out, &mut seen);
+    out
+}
+
+fn expand<'a>(source: &'a str, out: &mut String, seen: &mut Vec<&'a str>) {
+    for line in source.lines() {
+        let directive = line.trim().strip_prefix("// #include").map(|rest| rest.trim().trim_matches('"'));
+        match directive {
+            Some(name) => {
+                let (key, text) =
+                    SHARED.iter().find(|(n, _)| *n == name).unwrap_or_else(|| panic!("unknown WGSL include '{name}'"));
+                if !seen.contains(key) {
+                    seen.push(key);
+                    out.push_str(&format!("// ---- {key} ----\n"));
+                    expand(text, out, seen);
+                    out.push_str(&format!("// ---- end {key} ----\n"));
+                }
+            }
+            None => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+}
+
+/// Composes and compiles a WGSL module.
+pub fn module(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(compose(source).into()),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn includes_expand_once() {
+        let s = compose(
+            "// #include \"common.wgsl\"\n// #include \"lights.wgsl\"\n// #include \"common.wgsl\"\nfn main() {}\n",
+        );
+        assert_eq!(s.matches("---- common.wgsl ----").count(), 1);
+        assert!(s.contains("struct Camera"));
+        assert!(s.contains("fn main() {}"));
+    }
+}

@@ -1,0 +1,37 @@
+// Camera and surface reconstruction shared by every pass (see frame.rs: CameraUniform).
+
+struct Camera {
+    view_proj: mat4x4<f32>,
+    // Inverse of projection × (view without translation): maps NDC to positions relative to the
+    // eye, which keeps precision far from the origin.
+    inv_view_proj_rel: mat4x4<f32>,
+    // xyz: eye position.
+    position: vec4<f32>,
+    // width, height, 1/width, 1/height.
+    size: vec4<f32>,
+    // x: depth of the background (0 with reversed Z, 1 with standard Z).
+    depth: vec4<f32>,
+};
+
+// NDC of the centre of `pixel` (top-left origin, y up in NDC).
+fn ndc_of_pixel(pixel: vec2<u32>, size: vec4<f32>) -> vec2<f32> {
+    let uv = (vec2<f32>(pixel) + vec2<f32>(0.5)) * size.zw;
+    return vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+}
+
+// World position of the surface seen at `pixel` with depth-buffer value `depth`.
+fn world_from_depth(cam: Camera, pixel: vec2<u32>, depth: f32) -> vec3<f32> {
+    let h = cam.inv_view_proj_rel * vec4<f32>(ndc_of_pixel(pixel, cam.size), depth, 1.0);
+    return cam.position.xyz + h.xyz / h.w;
+}
+
+fn is_background(cam: Camera, depth: f32) -> bool {
+    return depth == cam.depth.x;
+}
+
+// A triangle that covers the screen: vertices 0, 1, 2.
+fn fullscreen_position(vertex: u32) -> vec4<f32> {
+    let x = f32((vertex << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(vertex & 2u) * 2.0 - 1.0;
+    return vec4<f32>(x, y, 0.0, 1.0);
+}

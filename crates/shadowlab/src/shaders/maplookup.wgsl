@@ -1,0 +1,70 @@
+// Lookups into a light's shadow map array (group 1 of map-based resolve shaders), with the
+// receiver-side biases: an offset along the normal scaled to the texel size (normal-offset
+// shadows, Holbert 2011) and a constant offset towards the light.
+
+// #include "shadowmap.wgsl"
+
+struct MapParams {
+    // x: normal offset in texels; y: constant offset in world units; z: map size; w: 1 for cube maps.
+    bias: vec4<f32>,
+    // x: 1 for bilinear comparison taps, 0 for nearest.
+    mode: vec4<f32>,
+};
+
+// The depths are read and compared in the shader (not with a comparison sampler): every backend,
+// GL included, then gives the same answer.
+@group(1) @binding(0) var shadow_maps: texture_2d_array<f32>;
+@group(1) @binding(2) var<storage, read> shadow_views: array<ShadowView>;
+@group(1) @binding(3) var<uniform> map_params: MapParams;
+
+struct MapPoint {
+    uvz: vec3<f32>,
+    layer: u32,
+    // World size of a texel at the point.
+    texel: f32,
+    on_map: bool,
+};
+
+// The view (layer) of `views_base + face` that covers p.
+fn map_layer(p: vec3<f32>, views_base: u32) -> u32 {
+    if (map_params.bias.w > 0.5) {
+        return views_base + cube_face(p - shadow_views[views_base].eye.xyz);
+    }
+    return views_base;
+}
+
+// Where the biased receiver point of p (normal n, towards the light l) falls on the map.
+fn map_point(p: vec3<f32>, n: vec3<f32>, l: vec3<f32>, views_base: u32) -> MapPoint {
+    var mp: MapPoint;
+    let first = map_layer(p, views_base);
+    mp.texel = shadow_texel_size(shadow_views[first], p);
+    let q = p + n * (map_params.bias.x * mp.texel) + l * map_params.bias.y;
+    mp.layer = map_layer(q, views_base);
+    mp.uvz = shadow_project(shadow_views[mp.layer], q);
+    mp.on_map = shadow_on_map(mp.uvz);
+    return mp;
+}
+
+// 1 when the receiver depth `z` is at least as close to the light as the stored depth (reversed Z).
+fn map_compare(texel: vec2<i32>, layer: u32, z: f32) -> f32 {
+    let last = i32(map_params.bias.z) - 1;
+    let t = clamp(texel, vec2<i32>(0), vec2<i32>(last));
+    return select(0.0, 1.0, z >= textureLoad(shadow_maps, t, i32(layer), 0).r);
+}
+
+// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit. Nearest, or
+// the bilinear weighting of the 2 × 2 comparisons around the point (what hardware PCF does).
+fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
+    let st = (mp.uvz.xy * map_params.bias.z) + offset;
+    if (map_params.mode.x < 0.5) {
+        return map_compare(vec2<i32>(floor(st)), layer, mp.uvz.z);
+    }
+    let s = st - vec2<f32>(0.5);
+    let base = vec2<i32>(floor(s));
+    let f = s - floor(s);
+    let c00 = map_compare(base, layer, mp.uvz.z);
+    let c10 = map_compare(base + vec2<i32>(1, 0), layer, mp.uvz.z);
+    let c01 = map_compare(base + vec2<i32>(0, 1), layer, mp.uvz.z);
+    let c11 = map_compare(base + vec2<i32>(1, 1), layer, mp.uvz.z);
+    return mix(mix(c00, c10, f.x), mix(c01, c11, f.x), f.y);
+}

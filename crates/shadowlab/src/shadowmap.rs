@@ -1,0 +1,394 @@
+//! Shadow maps: a depth texture array (one layer per view: a cube face, a cascade, a sample) and
+//! the depth-only pass that renders the shadow casters into a layer. Shared by every map-based
+//! technique; the views come from [`shadowlab_core::lightspace`].
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec4;
+use shadowlab_core::lightspace::ShadowView;
+use shadowlab_core::params::ParamDef;
+
+use crate::gpu_scene::{DrawGroup, INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
+use crate::technique::{FrameContext, Shared};
+use crate::timing::PassKind;
+
+pub const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// A view as the lookup shaders see it (`shaders/shadowmap.wgsl`, `struct ShadowView`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct ShadowViewUniform {
+    pub view_proj: [[f32; 4]; 4],
+    pub eye: [f32; 4],
+    pub axis: [f32; 4],
+}
+
+impl From<&ShadowView> for ShadowViewUniform {
+    fn from(v: &ShadowView) -> Self {
+        Self {
+            view_proj: v.view_projection.to_cols_array_2d(),
+            eye: v.eye.extend(if v.orthographic { 1.0 } else { 0.0 }).into(),
+            axis: v.axis.extend(v.texel_scale).into(),
+        }
+    }
+}
+
+/// Which faces of closed meshes go into the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FaceMode {
+    /// Back faces (from the light): the map holds the far side of each closed object, so lit
+    /// surfaces are far from the stored depth and do not self-shadow (Stingl 2011, §2.2).
+    Back,
+    Front,
+    Both,
+}
+
+impl FaceMode {
+    pub fn parse(text: &str) -> Self {
+        match text {
+            "front" => Self::Front,
+            "both" => Self::Both,
+            _ => Self::Back,
+        }
+    }
+}
+
+/// Rasterisation state of the depth pass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Raster {
+    pub faces: FaceMode,
+    /// Slope-scaled depth bias (in units of the primitive's depth slope), pushing stored depths
+    /// away from the light.
+    pub slope_bias: f32,
+}
+
+/// Parameters shared by `hard`, `pcf` and the other map techniques (see [`map_params!`]).
+pub const MAP_SIZE: ParamDef = ParamDef::int("map_size", 2048, 16, 8192, "shadow map resolution (texels per side)");
+pub const FACES: ParamDef =
+    ParamDef::choice("faces", "back", &["back", "front", "both"], "faces of closed meshes rendered into the map");
+pub const SLOPE_BIAS: ParamDef = ParamDef::float("slope_bias", 1.5, 0.0, 20.0, "slope-scaled raster depth bias");
+pub const NORMAL_OFFSET: ParamDef =
+    ParamDef::float("normal_offset", 0.7, 0.0, 10.0, "lookup offset along the surface normal, in texels");
+pub const CONSTANT_BIAS: ParamDef =
+    ParamDef::float("constant_bias", 0.0, 0.0, 10.0, "lookup offset towards the light, in world units");
+
+/// A technique's parameter list: the shared map parameters followed by its own.
+#[macro_export]
+macro_rules! map_params {
+    ($($own:expr),* $(,)?) => {
+        &[
+            $crate::shadowmap::MAP_SIZE,
+            $crate::shadowmap::FACES,
+            $crate::shadowmap::SLOPE_BIAS,
+            $crate::shadowmap::NORMAL_OFFSET,
+            $crate::shadowmap::CONSTANT_BIAS,
+            $($own),*
+        ]
+    };
+}
+
+/// Lookup parameters, as the resolve shaders read them (`MapParams` in `shaders/maplookup.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
+pub struct BiasUniform {
+    /// x: normal offset (texels); y: constant bias (world); z: map size; w: 1 when the map is a cube.
+    pub values: Vec4,
+    /// x: 1 for bilinear comparison taps.
+    pub mode: Vec4,
+}
+
+/// A depth texture array with the views it is rendered from.
+pub struct ShadowMapArray {
+    pub texture: wgpu::Texture,
+    /// All layers, for sampling (`texture_depth_2d_array`).
+    pub array_view: wgpu::TextureView,
+    layer_views: Vec<wgpu::TextureView>,
+    pub size: u32,
+    pub layers: u32,
+    /// View matrices for rendering, one 256-byte-aligned slot per view.
+    matrices: wgpu::Buffer,
+    matrices_group: wgpu::BindGroup,
+    stride: u64,
+    /// `array<ShadowView>` for lookups.
+    pub views: wgpu::Buffer,
+    pub capacity: u32,
+}
+
+impl ShadowMapArray {
+    /// `layers` layers of `size`², and room for `capacity` views.
+    pub fn new(shared: &Shared, size: u32, layers: u32, capacity: u32) -> Self {
+        let device = &shared.gpu.device;
+        // wgpu's GL backend picks a texture's GL target from its layer count (1 → 2D, 6 square
+        // layers → cube map), and a 2D-array view of those reads nothing: pad to a true array.
+        let allocated =
+            if shared.gpu.adapter.backend == "gl" && (layers == 1 || layers == 6) { layers + 1 } else { layers };
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadow maps"),
+            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: allocated },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: SHADOW_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let array_view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layer_views = (0..layers)
+            .map(|l| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: l,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        let stride = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(64);
+        let matrices = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shadow view matrices"),
+            size: stride * u64::from(capacity.max(1)),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let layout = matrices_layout(shared);
+        let matrices_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shadow view matrices"),
+            layout: &layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &matrices,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(64),
+                }),
+            }],
+        });
+        let views = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shadow views"),
+            size: (std::mem::size_of::<ShadowViewUniform>() as u64) * u64::from(capacity.max(1)),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self { texture, array_view, layer_views, size, layers, matrices, matrices_group, stride, views, capacity }
+    }
+
+    /// Bytes held on the GPU.
+    pub fn bytes(&self) -> u64 {
+        u64::from(self.size) * u64::from(self.size) * u64::from(self.texture.depth_or_array_layers()) * 4
+            + self.matrices.size()
+            + self.views.size()
+    }
+
+    /// Stores `views` in slots `first..`.
+    pub fn set_views(&self, queue: &wgpu::Queue, first: u32, views: &[ShadowView]) {
+        for (i, v) in views.iter().enumerate() {
+            let slot = u64::from(first) + i as u64;
+            queue.write_buffer(&self.matrices, slot * self.stride, bytemuck::bytes_of(&v.view_projection));
+        }
+        let data: Vec<ShadowViewUniform> = views.iter().map(ShadowViewUniform::from).collect();
+        queue.write_buffer(
+            &self.views,
+            u64::from(first) * std::mem::size_of::<ShadowViewUniform>() as u64,
+            bytemuck::cast_slice(&data),
+        );
+    }
+
+    /// Renders the shadow casters into `layer` from the view in `slot`. Returns the draws issued.
+    pub fn render(&self, ctx: &mut FrameContext<'_>, layer: u32, slot: u32, raster: &Raster) -> u32 {
+        let timestamps = ctx.timer.render_pass(&ctx.gpu.device, PassKind::Shadow);
+        let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("shadow map"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.layer_views[layer as usize],
+                // Reversed Z: 0 is "infinitely far", every caster is closer.
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        ctx.gpu_scene.bind(&mut pass);
+        pass.set_bind_group(0, Some(&self.matrices_group), &[(u64::from(slot) * self.stride) as u32]);
+        let mut draws = 0;
+        let mut current: Option<(wgpu::Face, bool, bool)> = None;
+        for g in ctx.gpu_scene.groups.iter().filter(|g| g.casts_shadows) {
+            let cull = cull_mode(g, raster.faces);
+            let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored);
+            if current != Some(key) {
+                pass.set_pipeline(&depth_pipeline(ctx.shared, cull, g.mirrored, raster.slope_bias));
+                current = Some(key);
+            }
+            ctx.gpu_scene.draw(&mut pass, std::iter::once(g));
+            draws += 1;
+        }
+        draws
+    }
+}
+
+/// Culling for a draw group: closed meshes follow the face mode; open and double-sided ones are
+/// drawn whole (either side may face the light).
+fn cull_mode(g: &DrawGroup, faces: FaceMode) -> Option<wgpu::Face> {
+    match (g.sidedness, faces) {
+        (Sidedness::Closed, FaceMode::Back) => Some(wgpu::Face::Front),
+        (Sidedness::Closed, FaceMode::Front) => Some(wgpu::Face::Back),
+        _ => None,
+    }
+}
+
+fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("shadow view matrices", || {
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shadow view matrices"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: std::num::NonZeroU64::new(64),
+                },
+                count: None,
+            }],
+        })
+    })
+}
+
+fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, slope_bias: f32) -> wgpu::RenderPipeline {
+    let key = format!("shadow depth {cull:?} mirrored={mirrored} slope={}", slope_bias.to_bits());
+    shared.render_pipeline(&key, || {
+        let device = &shared.gpu.device;
+        let module = crate::shader::module(device, "shadow depth", include_str!("shaders/shadow_depth.wgsl"));
+        let layout = matrices_layout(shared);
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shadow depth"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(&key),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: cull,
+                front_face: if mirrored { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: SHADOW_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                // Reversed Z: a negative bias pushes stored depths away from the light.
+                bias: wgpu::DepthBiasState { constant: 0, slope_scale: -slope_bias, clamp: 0.0 },
+            }),
+            multisample: Default::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
+        })
+    })
+}
+
+/// A light's hard shadow map from its centre: the frusta, the map array, the bias, and the group-1
+/// bind group of `shaders/maplookup.wgsl`.
+pub struct LightMap {
+    pub maps: ShadowMapArray,
+    pub frusta: shadowlab_core::lightspace::LightFrusta,
+    pub raster: Raster,
+    params: wgpu::Buffer,
+    pub group: wgpu::BindGroup,
+    draws: u32,
+}
+
+impl LightMap {
+    /// From the map parameters in `p` (`map_size`, `faces`, `slope_bias`, `normal_offset`,
+    /// `constant_bias`); `linear` selects bilinear comparison taps (2 × 2 PCF) over nearest ones.
+    pub fn new(
+        shared: &Shared,
+        light: &shadowlab_core::Light,
+        bounds: &shadowlab_core::Aabb,
+        p: &shadowlab_core::ParamSet,
+        linear: bool,
+    ) -> Self {
+        let size = p.int("map_size") as u32;
+        let frusta = shadowlab_core::lightspace::light_frusta(light, bounds, size);
+        let layers = frusta.views.len() as u32;
+        let maps = ShadowMapArray::new(shared, size, layers, layers);
+        maps.set_views(&shared.gpu.queue, 0, &frusta.views);
+        let bias = BiasUniform {
+            values: Vec4::new(
+                p.float("normal_offset") as f32,
+                p.float("constant_bias") as f32,
+                size as f32,
+                if frusta.cube { 1.0 } else { 0.0 },
+            ),
+            mode: Vec4::new(if linear { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0),
+        };
+        let params = crate::util::uniform_buffer(&shared.gpu.device, "map params", bytemuck::bytes_of(&bias));
+        let group = lookup_group(shared, &maps, &params);
+        let raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
+        Self { maps, frusta, raster, params, group, draws: 0 }
+    }
+
+    /// Renders every view of the map.
+    pub fn render(&mut self, ctx: &mut FrameContext<'_>) {
+        self.draws = 0;
+        for layer in 0..self.maps.layers {
+            self.draws += self.maps.render(ctx, layer, layer, &self.raster);
+        }
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.maps.bytes() + self.params.size()
+    }
+
+    /// Passes, draws and triangles of the last [`LightMap::render`].
+    pub fn counts(&self, gpu_scene_triangles: u64) -> (u32, u32, u64) {
+        (self.maps.layers, self.draws, gpu_scene_triangles * u64::from(self.maps.layers))
+    }
+}
+
+/// The group-1 layout of `shaders/maplookup.wgsl`.
+pub fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("map lookup", || {
+        let c = wgpu::ShaderStages::COMPUTE;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("map lookup"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: c,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                crate::technique::storage_entry(2, c, true),
+                crate::technique::uniform_entry(3, c),
+            ],
+        })
+    })
+}
+
+pub fn lookup_group(shared: &Shared, maps: &ShadowMapArray, params: &wgpu::Buffer) -> wgpu::BindGroup {
+    shared.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("map lookup"),
+        layout: &lookup_layout(shared),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&maps.array_view) },
+            wgpu::BindGroupEntry { binding: 2, resource: maps.views.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: params.as_entire_binding() },
+        ],
+    })
+}

@@ -1,0 +1,13 @@
+//! The shadow techniques, one module each with its WGSL beside it.
+
+mod hard;
+mod none;
+mod pcf;
+mod sampled;
+
+use crate::technique::TechniqueInfo;
+
+/// Every light type.
+pub(crate) const ALL_LIGHTS: &[&str] = &["point", "spot", "directional", "rect"];
+
+pub(crate) static REGISTRY: &[TechniqueInfo] = &[none::INFO, hard::INFO, pcf::INFO, sampled::INFO];

@@ -1,0 +1,50 @@
+//! `none`: no shadows, V = 1 everywhere. The floor of every cost and the ceiling of every error.
+
+use shadowlab_core::{Light, ParamSet};
+
+use crate::frame::VisibilityLayer;
+use crate::technique::{
+    FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+};
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    id: "none",
+    summary: "no shadows (V = 1): the cost floor and error ceiling",
+    source: "—",
+    params: &[],
+    light_types: super::ALL_LIGHTS,
+    create,
+};
+
+struct NoShadows {
+    params: ParamSet,
+    pipeline: wgpu::ComputePipeline,
+}
+
+fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+    let pipeline = shared.resolve_pipeline("none", include_str!("none.wgsl"), "main", &[], &[]);
+    Ok(Box::new(NoShadows { params: params.clone(), pipeline }))
+}
+
+impl ShadowTechnique for NoShadows {
+    fn id(&self) -> &'static str {
+        INFO.id
+    }
+
+    fn params(&self) -> &ParamSet {
+        &self.params
+    }
+
+    fn prepare(&mut self, _ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        Ok(())
+    }
+
+    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        let group = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        dispatch_resolve(ctx, "none", &self.pipeline, &[&group]);
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        TechniqueStats { passes: 1, ..Default::default() }
+    }
+}

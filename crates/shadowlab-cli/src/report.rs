@@ -58,38 +58,62 @@ pub fn quality_time_svg(points: &[PlotPoint], error_name: &str, time_name: &str)
     {
         let root = SVGBackend::with_string(&mut svg, (720, 440)).into_drawing_area();
         root.fill(&WHITE)?;
-        let finite: Vec<&PlotPoint> = points.iter().filter(|p| p.ms.is_finite() && p.error.is_finite()).collect();
-        let max_ms = finite.iter().map(|p| p.ms).fold(0.0f64, f64::max).max(1e-3) * 1.15;
+        let finite: Vec<&PlotPoint> =
+            points.iter().filter(|p| p.ms.is_finite() && p.ms > 0.0 && p.error.is_finite()).collect();
+        let max_ms = finite.iter().map(|p| p.ms).fold(0.0f64, f64::max).max(1e-3);
+        let min_ms = finite.iter().map(|p| p.ms).fold(f64::INFINITY, f64::min).min(max_ms);
         let max_err = finite.iter().map(|p| p.error).fold(0.0f64, f64::max).max(1e-4) * 1.15;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(format!("{error_name} against {time_name}"), ("sans-serif", 18))
-            .margin(16)
-            .x_label_area_size(42)
-            .y_label_area_size(64)
-            .build_cartesian_2d(0.0..max_ms, 0.0..max_err)?;
-        chart.configure_mesh().x_desc(time_name).y_desc(error_name).label_style(("sans-serif", 13)).draw()?;
-        let palette = [
-            RGBColor(31, 119, 180),
-            RGBColor(214, 39, 40),
-            RGBColor(44, 160, 44),
-            RGBColor(148, 103, 189),
-            RGBColor(255, 127, 14),
-            RGBColor(140, 86, 75),
-            RGBColor(227, 119, 194),
-            RGBColor(23, 190, 207),
-        ];
-        for (i, p) in finite.iter().enumerate() {
-            let c = palette[i % palette.len()];
-            chart.draw_series(std::iter::once(Circle::new((p.ms, p.error), 6, c.filled())))?;
-            chart.draw_series(std::iter::once(Text::new(
-                p.label.clone(),
-                (p.ms, p.error),
-                ("sans-serif", 13).into_font().color(&c),
-            )))?;
+        let caption = format!("{error_name} against {time_name}");
+        let mut builder = ChartBuilder::on(&root);
+        builder.caption(caption, ("sans-serif", 18)).margin(16).x_label_area_size(42).y_label_area_size(64);
+        // Times often span orders of magnitude (none … sampled): a log axis keeps every point apart.
+        if max_ms / min_ms > 20.0 {
+            let mut chart = builder.build_cartesian_2d((min_ms * 0.7..max_ms * 1.5).log_scale(), 0.0..max_err)?;
+            chart
+                .configure_mesh()
+                .x_desc(format!("{time_name}, log scale"))
+                .y_desc(error_name)
+                .label_style(("sans-serif", 13))
+                .draw()?;
+            draw_points(&mut chart, &finite)?;
+        } else {
+            let mut chart = builder.build_cartesian_2d(0.0..max_ms * 1.15, 0.0..max_err)?;
+            chart.configure_mesh().x_desc(time_name).y_desc(error_name).label_style(("sans-serif", 13)).draw()?;
+            draw_points(&mut chart, &finite)?;
         }
         root.present()?;
     }
     Ok(svg)
+}
+
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
+
+/// One dot and label per technique, on a linear or a log time axis.
+fn draw_points<DB: DrawingBackend, X: plotters::coord::ranged1d::Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+    points: &[&PlotPoint],
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    for (i, p) in points.iter().enumerate() {
+        let c = PALETTE[i % PALETTE.len()];
+        chart.draw_series(std::iter::once(Circle::new((p.ms, p.error), 6, c.filled())))?;
+        chart.draw_series(std::iter::once(
+            EmptyElement::at((p.ms, p.error))
+                + Text::new(p.label.clone(), (9, -6), ("sans-serif", 13).into_font().color(&c)),
+        ))?;
+    }
+    Ok(())
 }
 
 /// An HTML table.

@@ -1,8 +1,9 @@
 //! WGSL composition: shared code lives in `src/shaders/` and is included, never copied.
 //!
 //! WGSL has no include mechanism, so a line `// #include "name.wgsl"` is replaced by the shared
-//! module of that name (each included once per shader, in order). The directive is a comment, so
-//! every file stays valid WGSL for editors and validators.
+//! module of that name (each included once per shader, in order). Blocks between `// #ifdef NAME`,
+//! `// #else` and `// #endif` are kept or dropped by the defines given (no nesting). Directives are
+//! comments, so every file stays valid WGSL for editors and validators.
 
 /// The shared modules, by the name used in `#include` lines.
 const SHARED: &[(&str, &str)] = &[
@@ -15,16 +16,34 @@ const SHARED: &[(&str, &str)] = &[
 
 /// Expands `// #include "name"` directives. Panics on an unknown include: shaders are compiled into
 /// the binary, so that is a programming error caught by the tests, never user input.
-pub fn compose(source: &str) -> String {
+pub fn compose(source: &str, defines: &[&str]) -> String {
     let mut out = String::with_capacity(source.len() * 2);
     let mut seen: Vec<&str> = Vec::new();
-    expand(source, &mut out, &mut seen);
+    expand(source, defines, &mut out, &mut seen);
     out
 }
 
-fn expand<'a>(source: &'a str, out: &mut String, seen: &mut Vec<&'a str>) {
+fn expand<'a>(source: &'a str, defines: &[&str], out: &mut String, seen: &mut Vec<&'a str>) {
+    // Whether the current #ifdef branch is kept (None outside a block).
+    let mut keep: Option<bool> = None;
     for line in source.lines() {
-        let directive = line.trim().strip_prefix("// #include").map(|rest| rest.trim().trim_matches('"'));
+        let t = line.trim();
+        if let Some(name) = t.strip_prefix("// #ifdef") {
+            keep = Some(defines.contains(&name.trim()));
+            continue;
+        }
+        if t == "// #else" {
+            keep = keep.map(|k| !k);
+            continue;
+        }
+        if t == "// #endif" {
+            keep = None;
+            continue;
+        }
+        if keep == Some(false) {
+            continue;
+        }
+        let directive = t.strip_prefix("// #include").map(|rest| rest.trim().trim_matches('"'));
         match directive {
             Some(name) => {
                 let (key, text) =
@@ -32,7 +51,7 @@ fn expand<'a>(source: &'a str, out: &mut String, seen: &mut Vec<&'a str>) {
                 if !seen.contains(key) {
                     seen.push(key);
                     out.push_str(&format!("// ---- {key} ----\n"));
-                    expand(text, out, seen);
+                    expand(text, defines, out, seen);
                     out.push_str(&format!("// ---- end {key} ----\n"));
                 }
             }
@@ -46,9 +65,14 @@ fn expand<'a>(source: &'a str, out: &mut String, seen: &mut Vec<&'a str>) {
 
 /// Composes and compiles a WGSL module.
 pub fn module(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
+    module_with(device, label, source, &[])
+}
+
+/// Composes with `defines` and compiles a WGSL module.
+pub fn module_with(device: &wgpu::Device, label: &str, source: &str, defines: &[&str]) -> wgpu::ShaderModule {
     device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(compose(source).into()),
+        source: wgpu::ShaderSource::Wgsl(compose(source, defines).into()),
     })
 }
 
@@ -60,9 +84,17 @@ mod tests {
     fn includes_expand_once() {
         let s = compose(
             "// #include \"common.wgsl\"\n// #include \"lights.wgsl\"\n// #include \"common.wgsl\"\nfn main() {}\n",
+            &[],
         );
         assert_eq!(s.matches("---- common.wgsl ----").count(), 1);
         assert!(s.contains("struct Camera"));
         assert!(s.contains("fn main() {}"));
+    }
+
+    #[test]
+    fn ifdef_selects_a_branch() {
+        let src = "a\n// #ifdef X\nb\n// #else\nc\n// #endif\nd\n";
+        assert_eq!(compose(src, &["X"]), "a\nb\nd\n");
+        assert_eq!(compose(src, &[]), "a\nc\nd\n");
     }
 }

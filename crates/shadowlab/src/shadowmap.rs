@@ -334,7 +334,7 @@ impl LightMap {
             mode: Vec4::new(if linear { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0),
         };
         let params = crate::util::uniform_buffer(&shared.gpu.device, "map params", bytemuck::bytes_of(&bias));
-        let group = lookup_group(shared, &maps, &params);
+        let group = lookup_group(shared, &maps, &params, linear);
         let raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
         Self { maps, frusta, raster, params, group, draws: 0 }
     }
@@ -361,14 +361,17 @@ impl LightMap {
 pub fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("map lookup", || {
         let c = wgpu::ShaderStages::COMPUTE;
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("map lookup"),
-            entries: &[
+        let entries = {
+            let mut entries = vec![
                 wgpu::BindGroupLayoutEntry {
                     binding: 0,
                     visibility: c,
                     ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        sample_type: if shared.hardware_compare {
+                            wgpu::TextureSampleType::Depth
+                        } else {
+                            wgpu::TextureSampleType::Float { filterable: false }
+                        },
                         view_dimension: wgpu::TextureViewDimension::D2Array,
                         multisampled: false,
                     },
@@ -376,19 +379,38 @@ pub fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
                 },
                 crate::technique::storage_entry(2, c, true),
                 crate::technique::uniform_entry(3, c),
-            ],
-        })
+            ];
+            if shared.hardware_compare {
+                entries.push(wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: c,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                });
+            }
+            entries
+        };
+        shared
+            .gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("map lookup"), entries: &entries })
     })
 }
 
-pub fn lookup_group(shared: &Shared, maps: &ShadowMapArray, params: &wgpu::Buffer) -> wgpu::BindGroup {
+/// The group-1 bind group of `shaders/maplookup.wgsl`; `linear` selects bilinear comparison taps.
+pub fn lookup_group(shared: &Shared, maps: &ShadowMapArray, params: &wgpu::Buffer, linear: bool) -> wgpu::BindGroup {
+    let mut entries = vec![
+        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&maps.array_view) },
+        wgpu::BindGroupEntry { binding: 2, resource: maps.views.as_entire_binding() },
+        wgpu::BindGroupEntry { binding: 3, resource: params.as_entire_binding() },
+    ];
+    if shared.hardware_compare {
+        let sampler = if linear { &shared.compare_linear } else { &shared.compare_nearest };
+        entries.push(wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) });
+    }
     shared.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("map lookup"),
         layout: &lookup_layout(shared),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&maps.array_view) },
-            wgpu::BindGroupEntry { binding: 2, resource: maps.views.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 3, resource: params.as_entire_binding() },
-        ],
+        entries: &entries,
     })
 }

@@ -174,12 +174,17 @@ pub fn check_global_sets(specs: &[TechniqueSpec], global: &[String]) -> Result<(
     Ok(())
 }
 
-/// Resources shared by all techniques: layouts and a cache of compiled pipelines (so
+/// Resources shared by all techniques: samplers, layouts and a cache of compiled pipelines (so
 /// four lights with the same technique compile its shaders once).
 pub struct Shared {
     pub gpu: Gpu,
     /// Group 0 of visibility-resolve shaders (`shaders/resolve.wgsl`).
     pub resolve_layout: wgpu::BindGroupLayout,
+    /// Shadow maps are read through hardware comparison samplers (all backends but GL).
+    pub hardware_compare: bool,
+    /// Comparison samplers for shadow maps (reversed Z: lit when reference ≥ stored).
+    pub compare_nearest: wgpu::Sampler,
+    pub compare_linear: wgpu::Sampler,
     render_pipelines: Mutex<HashMap<String, wgpu::RenderPipeline>>,
     compute_pipelines: Mutex<HashMap<String, wgpu::ComputePipeline>>,
     layouts: Mutex<HashMap<String, wgpu::BindGroupLayout>>,
@@ -226,9 +231,24 @@ impl Shared {
                 },
             ],
         });
+        let compare = |filter| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("shadow compare"),
+                address_mode_u: wgpu::AddressMode::ClampToEdge,
+                address_mode_v: wgpu::AddressMode::ClampToEdge,
+                mag_filter: filter,
+                min_filter: filter,
+                compare: Some(wgpu::CompareFunction::GreaterEqual),
+                ..Default::default()
+            })
+        };
         Self {
             gpu: gpu.clone(),
             resolve_layout,
+            // wgpu's GL backend returns 0 from comparison samples of depth arrays (seen on Mesa).
+            hardware_compare: gpu.adapter.backend != "gl",
+            compare_nearest: compare(wgpu::FilterMode::Nearest),
+            compare_linear: compare(wgpu::FilterMode::Linear),
             render_pipelines: Mutex::default(),
             compute_pipelines: Mutex::default(),
             layouts: Mutex::default(),
@@ -283,7 +303,8 @@ impl Shared {
     ) -> wgpu::ComputePipeline {
         self.compute_pipeline(key, || {
             let device = &self.gpu.device;
-            let module = crate::shader::module(device, key, source);
+            let defines: &[&str] = if self.hardware_compare { &["HARDWARE_COMPARE"] } else { &[] };
+            let module = crate::shader::module_with(device, key, source, defines);
             let mut layouts: Vec<Option<&wgpu::BindGroupLayout>> = vec![Some(&self.resolve_layout)];
             layouts.extend(extra.iter().map(|l| Some(*l)));
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -11,9 +11,6 @@ struct MapParams {
     mode: vec4<f32>,
 };
 
-// The depths are read and compared in the shader (not with a comparison sampler): every backend,
-// GL included, then gives the same answer.
-@group(1) @binding(0) var shadow_maps: texture_2d_array<f32>;
 @group(1) @binding(2) var<storage, read> shadow_views: array<ShadowView>;
 @group(1) @binding(3) var<uniform> map_params: MapParams;
 
@@ -45,6 +42,21 @@ fn map_point(p: vec3<f32>, n: vec3<f32>, l: vec3<f32>, views_base: u32) -> MapPo
     return mp;
 }
 
+// #ifdef HARDWARE_COMPARE
+// The hardware comparison sampler: nearest, or bilinear (2 × 2 PCF in one tap), by the sampler bound.
+@group(1) @binding(0) var shadow_maps: texture_depth_2d_array;
+@group(1) @binding(1) var shadow_sampler: sampler_comparison;
+
+// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit.
+fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
+    let uv = mp.uvz.xy + offset / map_params.bias.z;
+    return textureSampleCompareLevel(shadow_maps, shadow_sampler, uv, i32(layer), mp.uvz.z);
+}
+// #else
+// Where comparison samplers of texture arrays do not work (wgpu's GL backend), the depths are read
+// and compared in the shader, with the same nearest or bilinear weighting.
+@group(1) @binding(0) var shadow_maps: texture_2d_array<f32>;
+
 // 1 when the receiver depth `z` is at least as close to the light as the stored depth (reversed Z).
 fn map_compare(texel: vec2<i32>, layer: u32, z: f32) -> f32 {
     let last = i32(map_params.bias.z) - 1;
@@ -52,8 +64,7 @@ fn map_compare(texel: vec2<i32>, layer: u32, z: f32) -> f32 {
     return select(0.0, 1.0, z >= textureLoad(shadow_maps, t, i32(layer), 0).r);
 }
 
-// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit. Nearest, or
-// the bilinear weighting of the 2 × 2 comparisons around the point (what hardware PCF does).
+// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit.
 fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
     let st = (mp.uvz.xy * map_params.bias.z) + offset;
     if (map_params.mode.x < 0.5) {
@@ -68,3 +79,4 @@ fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
     let c11 = map_compare(base + vec2<i32>(1, 1), layer, mp.uvz.z);
     return mix(mix(c00, c10, f.x), mix(c01, c11, f.x), f.y);
 }
+// #endif

@@ -148,7 +148,7 @@ impl Sampled {
             mode: Vec4::ZERO,
         };
         let bias_buffer = crate::util::uniform_buffer(device, "sampled bias", bytemuck::bytes_of(&bias));
-        let lookup = lookup_group(shared, &maps, &bias_buffer);
+        let lookup = lookup_group(shared, &maps, &bias_buffer, false);
         let infos: Vec<SampleInfo> = points
             .iter()
             .map(|p| {

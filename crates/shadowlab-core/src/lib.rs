@@ -14,6 +14,8 @@
 
 pub mod bounds;
 pub mod camera;
+pub mod cascades;
+pub mod convex;
 pub mod error;
 pub mod light;
 pub mod lightspace;

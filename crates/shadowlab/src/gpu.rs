@@ -94,6 +94,9 @@ pub struct Gpu {
     pub info: wgpu::AdapterInfo,
     /// Timestamp queries around passes are available (GPU timing per pass).
     pub timestamps: bool,
+    /// The first uncaptured device error (out of memory, a limit exceeded), when shadowlab owns
+    /// the device; see [`Gpu::take_error`].
+    errors: std::sync::Arc<std::sync::Mutex<Option<String>>>,
 }
 
 /// Features shadowlab uses when the adapter has them; none is required.
@@ -165,13 +168,36 @@ impl Gpu {
             })
             .await
             .map_err(|source| GpuError::Device { adapter: info.name.clone(), source })?;
-        Ok(Self::from_device(device, queue, &info))
+        let gpu = Self::from_device(device, queue, &info);
+        // wgpu's default handler panics on any device error; a user's oversized map must instead
+        // become an error message. Record the first one; `take_error` hands it out.
+        let slot = gpu.errors.clone();
+        gpu.device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            let mut slot = slot.lock().unwrap_or_else(|p| p.into_inner());
+            if slot.is_none() {
+                *slot = Some(e.to_string());
+            }
+        }));
+        Ok(gpu)
+    }
+
+    /// The first device error since the last call (only on devices shadowlab opened itself; an
+    /// application's device keeps the application's own error handler).
+    pub fn take_error(&self) -> Option<String> {
+        self.errors.lock().unwrap_or_else(|p| p.into_inner()).take()
     }
 
     /// Uses an application's own device and queue (how shadowlab is embedded).
     pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, info: &wgpu::AdapterInfo) -> Self {
         let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        Self { device, queue, adapter: AdapterSummary::from(info), info: info.clone(), timestamps }
+        Self {
+            device,
+            queue,
+            adapter: AdapterSummary::from(info),
+            info: info.clone(),
+            timestamps,
+            errors: Default::default(),
+        }
     }
 
     /// Blocks until all submitted work has finished.

@@ -269,6 +269,9 @@ impl Renderer {
         self.lighting_passes(&mut encoder, None);
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.wait();
+        if let Some(e) = self.gpu.take_error() {
+            return Err(TechniqueError::Failed { id: "frame".into(), message: format!("GPU error: {e}") });
+        }
         let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         let gpu = self
             .timer

@@ -3,6 +3,7 @@
 mod args;
 mod commands;
 mod measure;
+mod overlay;
 mod progress;
 mod report;
 
@@ -32,6 +33,8 @@ enum Command {
     Compare(commands::compare::Args),
     /// Time techniques: GPU ms per pass, CPU ms, memory, ratios over `hard`.
     Bench(commands::bench::Args),
+    /// Perspective aliasing of a light's maps: predicted curves and measured texels per pixel.
+    Analyze(commands::analyze::Args),
 }
 
 fn main() {
@@ -43,6 +46,7 @@ fn main() {
         Command::Reference(a) => commands::reference::run(&cli.global, a),
         Command::Compare(a) => commands::compare::run(&cli.global, a),
         Command::Bench(a) => commands::bench::run(&cli.global, a),
+        Command::Analyze(a) => commands::analyze::run(&cli.global, a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

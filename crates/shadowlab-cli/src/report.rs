@@ -9,7 +9,7 @@ use plotters::prelude::*;
 /// The font plots are set in (DejaVu Sans, Bitstream Vera licence: `assets/DejaVuSans-LICENSE.txt`).
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
-fn register_font() {
+pub fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         // The font is compiled in and known to parse; a failure would only lose text in plots.

@@ -103,6 +103,46 @@ impl View {
     }
 }
 
+/// A scripted camera path: key views visited in order, interpolated over `frames` frames (position
+/// and target move linearly between keys). Used to measure temporal stability (flicker).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraPath {
+    pub name: String,
+    pub keys: Vec<View>,
+    pub frames: u32,
+}
+
+impl CameraPath {
+    /// The view of every frame.
+    pub fn views(&self) -> Vec<View> {
+        let frames = self.frames.max(2) as usize;
+        if self.keys.is_empty() {
+            return Vec::new();
+        }
+        if self.keys.len() == 1 {
+            return vec![self.keys[0].clone(); frames];
+        }
+        let segments = (self.keys.len() - 1) as f32;
+        (0..frames)
+            .map(|f| {
+                let t = f as f32 / (frames - 1) as f32 * segments;
+                let k = (t.floor() as usize).min(self.keys.len() - 2);
+                let u = t - k as f32;
+                let (a, b) = (&self.keys[k], &self.keys[k + 1]);
+                View {
+                    name: format!("{}#{f}", self.name),
+                    position: a.position.lerp(b.position, u),
+                    target: a.target.lerp(b.target, u),
+                    up: a.up.lerp(b.up, u).normalize_or(Vec3::Y),
+                    fov_y: a.fov_y + (b.fov_y - a.fov_y) * u,
+                    near: a.near + (b.near - a.near) * u,
+                    far: a.far + (b.far - a.far) * u,
+                }
+            })
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -124,6 +164,18 @@ mod tests {
             assert!((py - (y as f32 + 0.5)).abs() < 1e-3, "{py} vs {y}");
             assert!(ndc.z > 0.0 && ndc.z < 1.0);
         }
+    }
+
+    #[test]
+    fn paths_interpolate_between_keys() {
+        let a = View::new("a", Vec3::ZERO, Vec3::X, 0.1, 10.0);
+        let b = View::new("b", Vec3::new(0.0, 0.0, 2.0), Vec3::new(1.0, 0.0, 2.0), 0.1, 10.0);
+        let p = CameraPath { name: "p".into(), keys: vec![a.clone(), b], frames: 5 };
+        let v = p.views();
+        assert_eq!(v.len(), 5);
+        assert_eq!(v[0].position, a.position);
+        assert!((v[2].position.z - 1.0).abs() < 1e-6);
+        assert!((v[4].position.z - 2.0).abs() < 1e-6);
     }
 
     #[test]

@@ -5,6 +5,12 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
+use crate::bounds::Aabb;
+use crate::camera::View;
+use crate::convex::ConvexBody;
+use crate::light::{Light, LightKind};
+use crate::lightspace::ShadowView;
+
 /// The split distances `C_0..=C_m` of z-partitioning (Stingl 2011, Eqs. 3.6–3.8 and 4.1).
 ///
 /// `lambda` blends uniform (0) and logarithmic (1) splits (the practical scheme of PSSM, Zhang et
@@ -177,6 +183,321 @@ pub fn split_colour(i: usize) -> Vec3 {
     [Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 1.0)][i % 4]
 }
 
+/// How the shadow map is warped (Stingl 2011, §3.2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Warp {
+    /// Uniform (light-space aligned) shadow mapping.
+    None,
+    /// Perspective shadow maps (Stamminger & Drettakis 2002): warp distance = the near plane.
+    Psm,
+    /// Light-space perspective shadow maps with n_opt (Wimmer et al. 2004; Wimmer & Scherzer 2006).
+    Lispsm,
+    /// LiSPSM with n_repar(η(γ)) (Lloyd et al. 2008), robust when the light is near the view direction.
+    Repar,
+    /// n_repar(η) with a user η ∈ [−1, 1]: −1 uniform, 0 LiSPSM, 1 PSM.
+    Arbitrary(f32),
+}
+
+impl Warp {
+    pub fn parse(name: &str, strength: f32) -> Option<Self> {
+        Some(match name {
+            "none" => Self::None,
+            "psm" => Self::Psm,
+            "lispsm" => Self::Lispsm,
+            "repar" => Self::Repar,
+            "arbitrary" => Self::Arbitrary(strength.clamp(-1.0, 1.0)),
+            _ => return None,
+        })
+    }
+}
+
+/// The configuration of a cascaded (focused, warped, partitioned) shadow map.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CascadeSettings {
+    pub focus: bool,
+    pub warp: Warp,
+    pub splits: usize,
+    /// Uniform (0) to logarithmic (1) split blend.
+    pub lambda: f32,
+    /// Pseudo-near and pseudo-far planes as fractions of the depth range from each end (0: off).
+    pub pseudo_near: f32,
+    pub pseudo_far: f32,
+    /// Quantised scale and texel-snapped offsets (only without warping).
+    pub stabilize: bool,
+    /// Texels per side of each split's map.
+    pub map_size: u32,
+    /// A measured visible depth range (the automatic near plane) replacing the adjusted one.
+    pub depth_range: Option<(f32, f32)>,
+}
+
+/// One split's map.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cascade {
+    pub view: ShadowView,
+    /// Eye-depth range of the split.
+    pub near: f32,
+    pub far: f32,
+    /// The warp distance used (∞: not warped).
+    pub warp_n: f32,
+    /// The split's frustum does not meet the scene (its map is empty).
+    pub empty: bool,
+}
+
+/// The cascades of one frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CascadeFrame {
+    pub cascades: Vec<Cascade>,
+    /// The view depth range after adjustment to V ∩ S (and the measured range).
+    pub near: f32,
+    pub far: f32,
+    /// Angle between the view direction and the light direction, in [0, π/2].
+    pub gamma: f32,
+}
+
+impl CascadeFrame {
+    pub fn split_distances(&self) -> Vec<f32> {
+        let mut d: Vec<f32> = self.cascades.iter().map(|c| c.near).collect();
+        d.push(self.cascades.last().map_or(self.far, |c| c.far));
+        d
+    }
+}
+
+/// The view's depth range clipped to the scene: the min and max view-axis distance over the vertices
+/// of V ∩ S (Stingl 2011, §3.3.1, after Zhang et al. 2007). `None` when the view misses the scene.
+pub fn adjusted_depth_range(view: &View, aspect: f32, scene: &Aabb) -> Option<(f32, f32)> {
+    let v = ConvexBody::from_frustum(&(view.projection(aspect) * view.view_matrix()));
+    let h = v.clip_to_aabb(scene);
+    let f = view.forward();
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for p in h.points() {
+        let z = (p - view.position).dot(f);
+        lo = lo.min(z);
+        hi = hi.max(z);
+    }
+    (lo <= hi).then(|| (lo.max(view.near), hi.min(view.far).max(lo.max(view.near) * (1.0 + 1e-4))))
+}
+
+/// Computes the split maps of a directional or spot light for `view` (Stingl 2011, §3.4): adjust the
+/// depth range, split it, then per split focus on B_i, warp (directional lights) and fit.
+pub fn compute_cascades(light: &Light, scene: &Aabb, view: &View, aspect: f32, s: &CascadeSettings) -> CascadeFrame {
+    let (mut near, mut far) = adjusted_depth_range(view, aspect, scene).unwrap_or((view.near, view.far));
+    if let Some((lo, hi)) = s.depth_range {
+        // The measured range is what the camera sees; it never widens the adjusted one.
+        near = lo.max(near).min(far);
+        far = hi.min(far).max(near * (1.0 + 1e-4));
+    }
+    let forward = view.forward();
+    let m = s.splits.max(1);
+    let span = far - near;
+    let (pn, pf) = (near + s.pseudo_near.clamp(0.0, 0.99) * span, far - s.pseudo_far.clamp(0.0, 0.99) * span);
+    let distances = split_distances(near, far, m, s.lambda, pn, pf.max(pn * (1.0 + 1e-4)));
+    let light_dir = light.direction().unwrap_or(Vec3::NEG_Y).normalize();
+    let gamma = forward.dot(-light_dir).abs().min(1.0).acos();
+    let mut cascades = Vec::with_capacity(m);
+    for i in 0..m {
+        let (cn, cf) = (distances[i], distances[i + 1]);
+        let split_view = View { near: cn, far: cf.max(cn * (1.0 + 1e-5)), ..view.clone() };
+        let body = ConvexBody::from_frustum(&(split_view.projection(aspect) * split_view.view_matrix()));
+        let cascade = match light.kind {
+            LightKind::Spot { position, direction, outer_angle, .. } => {
+                spot_cascade(position, direction, outer_angle, scene, &body, s, cn, cf)
+            }
+            _ => {
+                let (pn_i, pf_i) =
+                    (if i == 0 { s.pseudo_near } else { 0.0 }, if i + 1 == m { s.pseudo_far } else { 0.0 });
+                directional_cascade(light_dir, scene, view, &body, s, cn, cf, gamma, (pn_i, pf_i))
+            }
+        };
+        cascades.push(cascade);
+    }
+    CascadeFrame { cascades, near, far, gamma }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn directional_cascade(
+    light_dir: Vec3,
+    scene: &Aabb,
+    view: &View,
+    body: &ConvexBody,
+    s: &CascadeSettings,
+    near: f32,
+    far: f32,
+    gamma: f32,
+    (pn, pf): (f32, f32),
+) -> Cascade {
+    let forward = view.forward();
+    // The light frame: +y along the view direction projected onto the shadow-map plane when warping
+    // (LiSPSM's light space), a fixed frame otherwise (so the texel grid does not turn with the
+    // camera: a precondition of stabilisation).
+    let projected = forward - light_dir * forward.dot(light_dir);
+    let warping = s.warp != Warp::None && projected.length() > 1e-3;
+    let up = if warping {
+        projected.normalize()
+    } else if light_dir.y.abs() > 0.99 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
+    let radius = 0.5 * scene.diagonal().max(1e-3);
+    let eye = scene.center() - light_dir * (radius * 1.5);
+    let light_view = glam::camera::rh::view::look_at_mat4(eye, eye + light_dir, up);
+    let mut points: Vec<Vec3> = if s.focus {
+        crate::convex::directional_focus_points(body, scene, light_dir)
+    } else {
+        scene.corners().to_vec()
+    };
+    let empty = points.is_empty();
+    if empty {
+        // The split misses the scene: a tiny map at the scene centre, which no pixel will use.
+        points = vec![scene.center(), scene.center() + Vec3::splat(1e-3)];
+    }
+    let ls: Vec<Vec3> = points.iter().map(|&p| light_view.transform_point3(p)).collect();
+    let bounds = Aabb::from_points(ls.iter().copied());
+    // Depth covers the whole scene along the light (casters anywhere above the body).
+    let scene_ls = Aabb::from_points(scene.corners().iter().map(|&c| light_view.transform_point3(c)));
+    let (z_min, z_max) = (scene_ls.min.z.min(bounds.min.z), scene_ls.max.z.max(bounds.max.z));
+
+    let mut warp_n = f32::INFINITY;
+    let mut warp = Mat4::IDENTITY;
+    if warping && !empty {
+        let d = (bounds.max.y - bounds.min.y).max(1e-4);
+        // The projection centre moves continuously with the camera (Stingl 2011, §4.1): the light-space
+        // x (and z) of the point s on the view vector at the split's near distance.
+        let s_ls = light_view.transform_point3(view.position + forward * near);
+        let c_start = Vec3::new(s_ls.x, bounds.min.y, s_ls.z);
+        let inv = light_view.inverse();
+        let depth_of = |p_ls: Vec3| (inv.transform_point3(p_ls) - view.position).dot(forward);
+        let z0 = depth_of(c_start).max(near).max(1e-4);
+        let z1 = depth_of(c_start + Vec3::Y * d).max(z0 * (1.0 + 1e-4));
+        let theta = 0.5 * view.fov_y;
+        warp_n = match s.warp {
+            Warp::None => f32::INFINITY,
+            Warp::Psm => d * z0 / (z1 - z0),
+            Warp::Lispsm if pn > 0.0 || pf > 0.0 => n_opt_pseudo(d, z0, z1, pn, pf),
+            Warp::Lispsm => n_opt(d, z0, z1),
+            Warp::Repar => n_repar(d, z0, z1, eta(gamma, theta)),
+            Warp::Arbitrary(e) => n_repar(d, z0, z1, e),
+        };
+        if warp_n.is_finite() && warp_n > 0.0 {
+            let c = Vec3::new(c_start.x, c_start.y - warp_n, c_start.z);
+            warp = warp_matrix(c, warp_n, d);
+        } else {
+            warp_n = f32::INFINITY;
+        }
+    }
+    let size = s.map_size.max(1) as f32;
+    let (min, max) = if warp_n.is_finite() {
+        let w: Vec<Vec3> = ls.iter().map(|&p| warp.project_point3(p)).collect();
+        let b = Aabb::from_points(w.iter().copied());
+        // Depth range of the whole scene column, through the warp: extend z by the scene's extent.
+        let zc: Vec<f32> = ls
+            .iter()
+            .flat_map(|&p| {
+                [warp.project_point3(Vec3::new(p.x, p.y, z_min)).z, warp.project_point3(Vec3::new(p.x, p.y, z_max)).z]
+            })
+            .collect();
+        let (lo, hi) =
+            (zc.iter().copied().fold(f32::INFINITY, f32::min), zc.iter().copied().fold(f32::NEG_INFINITY, f32::max));
+        (Vec3::new(b.min.x, b.min.y, lo), Vec3::new(b.max.x, b.max.y, hi))
+    } else if s.stabilize {
+        stabilized_box(&bounds, &scene_ls, size)
+    } else {
+        (Vec3::new(bounds.min.x, bounds.min.y, z_min), Vec3::new(bounds.max.x, bounds.max.y, z_max))
+    };
+    // A texel of margin on each side for filter kernels at the border.
+    let pad = (max - min) / size;
+    let (min, max) = (
+        Vec3::new(min.x - pad.x, min.y - pad.y, min.z - 0.01 * (max.z - min.z)),
+        Vec3::new(max.x + pad.x, max.y + pad.y, max.z + 0.01 * (max.z - min.z)),
+    );
+    let fit = fit_matrix(min, max);
+    let projection = fit * warp;
+    let texel_scale = if warp_n.is_finite() {
+        (bounds.max.x - bounds.min.x).max(bounds.max.y - bounds.min.y) / size
+    } else {
+        (max.x - min.x).max(max.y - min.y) / size
+    };
+    Cascade {
+        view: ShadowView {
+            view: light_view,
+            projection,
+            view_projection: projection * light_view,
+            eye,
+            axis: light_dir,
+            orthographic: true,
+            near: 0.0,
+            far: z_max - z_min,
+            texel_scale,
+        },
+        near,
+        far,
+        warp_n,
+        empty,
+    }
+}
+
+/// Stabilised focus (Stingl 2011, §3.5, Zhang et al. 2009's approximated solution): the square
+/// extent quantised to 64 levels of the scene's extent, the centre snapped to whole texels, the
+/// depth range that of the whole scene. Small camera motions then move no texel boundary.
+fn stabilized_box(bounds: &Aabb, scene_ls: &Aabb, size: f32) -> (Vec3, Vec3) {
+    const LEVELS: f32 = 64.0;
+    let full = (scene_ls.max.x - scene_ls.min.x).max(scene_ls.max.y - scene_ls.min.y).max(1e-6);
+    let want = (bounds.max.x - bounds.min.x).max(bounds.max.y - bounds.min.y) * (1.0 + 4.0 / size);
+    let extent = ((want / full * LEVELS).ceil() / LEVELS).clamp(1.0 / LEVELS, 1.0) * full;
+    let texel = extent / size;
+    let c = bounds.center();
+    let (cx, cy) = ((c.x / texel).round() * texel, (c.y / texel).round() * texel);
+    (
+        Vec3::new(cx - 0.5 * extent, cy - 0.5 * extent, scene_ls.min.z),
+        Vec3::new(cx + 0.5 * extent, cy + 0.5 * extent, scene_ls.max.z),
+    )
+}
+
+/// A spot light's split map: its perspective frustum focused (in post-perspective space) on the
+/// split's visible part of the scene. Warping does not apply.
+#[allow(clippy::too_many_arguments)]
+fn spot_cascade(
+    position: Vec3,
+    direction: Vec3,
+    outer: f32,
+    scene: &Aabb,
+    body: &ConvexBody,
+    s: &CascadeSettings,
+    near: f32,
+    far: f32,
+) -> Cascade {
+    let base = crate::lightspace::point_frusta(position, scene, Some((direction, outer)), s.map_size).views[0];
+    let h = body.clip_to_aabb(scene);
+    let pts: Vec<Vec3> = if s.focus { h.points().collect() } else { Vec::new() };
+    let empty = s.focus && pts.is_empty();
+    let (min, max) = if s.focus && !empty {
+        // x, y: where the visible points fall on the light's image (clamped to it); depth: from the
+        // light's near plane (casters may sit anywhere in front) to the farthest visible point.
+        let ndc: Vec<Vec3> = pts.iter().map(|&p| base.view_projection.project_point3(p)).collect();
+        let b = Aabb::from_points(ndc.iter().map(|p| p.clamp(Vec3::new(-1.0, -1.0, 0.0), Vec3::ONE)));
+        (Vec3::new(b.min.x, b.min.y, b.min.z), Vec3::new(b.max.x, b.max.y, 1.0))
+    } else {
+        (Vec3::new(-1.0, -1.0, 0.0), Vec3::ONE)
+    };
+    let pad = (max - min) / s.map_size.max(1) as f32;
+    let fit =
+        fit_matrix(Vec3::new(min.x - pad.x, min.y - pad.y, min.z), Vec3::new(max.x + pad.x, max.y + pad.y, max.z));
+    let projection = fit * base.projection;
+    let shrink = ((max.x - min.x).max(max.y - min.y) * 0.5).max(1e-6);
+    Cascade {
+        view: ShadowView {
+            projection,
+            view_projection: projection * base.view,
+            texel_scale: base.texel_scale * shrink,
+            ..base
+        },
+        near,
+        far,
+        warp_n: f32::INFINITY,
+        empty,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -277,6 +598,112 @@ mod tests {
         // The near face (y = c.y + n) maps to 0, the far face to 1.
         assert!(w.project_point3(Vec3::new(0.0, c.y + n, 0.0)).y.abs() < 1e-6);
         assert!((w.project_point3(Vec3::new(0.0, c.y + n + d, 0.0)).y - 1.0).abs() < 1e-6);
+    }
+
+    fn settings(warp: Warp, splits: usize) -> CascadeSettings {
+        CascadeSettings {
+            focus: true,
+            warp,
+            splits,
+            lambda: 0.5,
+            pseudo_near: 0.0,
+            pseudo_far: 0.0,
+            stabilize: false,
+            map_size: 1024,
+            depth_range: None,
+        }
+    }
+
+    fn terrain_like() -> (Light, Aabb, View) {
+        let scene = Aabb::new(Vec3::new(-400.0, -30.0, -400.0), Vec3::new(400.0, 60.0, 400.0));
+        let light = Light::new(
+            "sun",
+            LightKind::Directional { direction: Vec3::new(0.7, -0.5, 0.4).normalize(), angular_radius: 0.0 },
+            Vec3::ONE,
+            1.0,
+        );
+        let view = View::new("ground", Vec3::new(-150.0, 5.0, 300.0), Vec3::new(80.0, 0.0, -300.0), 0.5, 1000.0);
+        (light, scene, view)
+    }
+
+    /// Every point of each split's V_i ∩ S lands inside that split's map.
+    fn assert_splits_cover(frame: &CascadeFrame, view: &View, scene: &Aabb) {
+        let d = frame.split_distances();
+        assert!(d.windows(2).all(|w| w[1] >= w[0]), "{d:?}");
+        for c in &frame.cascades {
+            let v = View { near: c.near, far: c.far, ..view.clone() };
+            let h = ConvexBody::from_frustum(&(v.projection(1.5) * v.view_matrix())).clip_to_aabb(scene);
+            for p in h.points() {
+                let uvz = c.view.project(p);
+                let e = 1e-3;
+                assert!(
+                    uvz.x > -e && uvz.x < 1.0 + e && uvz.y > -e && uvz.y < 1.0 + e,
+                    "{p} → {uvz} (warp n {})",
+                    c.warp_n
+                );
+                assert!(uvz.z > -e && uvz.z < 1.0 + e, "{p} → {uvz}");
+            }
+        }
+    }
+
+    #[test]
+    fn cascades_cover_their_splits() {
+        let (light, scene, view) = terrain_like();
+        for warp in [Warp::None, Warp::Lispsm, Warp::Repar, Warp::Psm] {
+            for splits in [1, 4] {
+                let f = compute_cascades(&light, &scene, &view, 1.5, &settings(warp, splits));
+                assert_eq!(f.cascades.len(), splits);
+                assert!(f.near >= view.near && f.far <= view.far);
+                if warp == Warp::Lispsm {
+                    assert!(
+                        f.cascades.iter().all(|c| c.warp_n.is_finite()),
+                        "LiSPSM warps when the light crosses the view"
+                    );
+                }
+                assert_splits_cover(&f, &view, &scene);
+            }
+        }
+    }
+
+    #[test]
+    fn stabilised_maps_move_by_whole_texels() {
+        let (light, scene, view) = terrain_like();
+        let mut s = settings(Warp::None, 1);
+        s.stabilize = true;
+        let a = compute_cascades(&light, &scene, &view, 1.5, &s);
+        let moved = View {
+            position: view.position + Vec3::new(0.013, 0.0, -0.021),
+            target: view.target + Vec3::new(0.013, 0.0, -0.021),
+            ..view.clone()
+        };
+        let b = compute_cascades(&light, &scene, &moved, 1.5, &s);
+        // A fixed world point lands a whole number of texels apart (here: the same texel).
+        let p = Vec3::new(10.0, 0.0, 20.0);
+        let (ua, ub) = (a.cascades[0].view.project(p), b.cascades[0].view.project(p));
+        let shift = (ub - ua) * 1024.0;
+        assert!((shift.x - shift.x.round()).abs() < 1e-2 && (shift.y - shift.y.round()).abs() < 1e-2, "{shift}");
+        assert!((a.cascades[0].view.texel_scale - b.cascades[0].view.texel_scale).abs() < 1e-6);
+        // Without stabilisation the same move shifts the grid by a fraction of a texel.
+        let (c, d) = (
+            compute_cascades(&light, &scene, &view, 1.5, &settings(Warp::None, 1)),
+            compute_cascades(&light, &scene, &moved, 1.5, &settings(Warp::None, 1)),
+        );
+        let unstable = (d.cascades[0].view.project(p) - c.cascades[0].view.project(p)) * 1024.0;
+        assert!(
+            (unstable.x - unstable.x.round()).abs() > 1e-3 || (unstable.y - unstable.y.round()).abs() > 1e-3,
+            "{unstable}"
+        );
+    }
+
+    #[test]
+    fn duelling_frusta_fall_back_to_uniform() {
+        let (mut light, scene, view) = terrain_like();
+        light.kind = LightKind::Directional { direction: -view.forward(), angular_radius: 0.0 };
+        let f = compute_cascades(&light, &scene, &view, 1.5, &settings(Warp::Lispsm, 1));
+        assert!(f.gamma < 1e-3);
+        assert!(f.cascades[0].warp_n.is_infinite());
+        let r = compute_cascades(&light, &scene, &view, 1.5, &settings(Warp::Repar, 1));
+        assert!(r.cascades[0].warp_n.is_infinite(), "η = −1 at γ = 0");
     }
 
     #[test]

@@ -31,7 +31,7 @@ pub mod surface;
 pub mod topology;
 
 pub use bounds::Aabb;
-pub use camera::View;
+pub use camera::{CameraPath, View};
 pub use error::{Location, SceneError};
 pub use glam;
 pub use light::{Light, LightKind};

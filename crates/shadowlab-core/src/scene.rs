@@ -4,7 +4,7 @@
 use glam::{Affine3A, Vec3};
 
 use crate::bounds::Aabb;
-use crate::camera::View;
+use crate::camera::{CameraPath, View};
 use crate::error::{Location, Result, SceneError};
 use crate::light::Light;
 use crate::material::Material;
@@ -144,6 +144,8 @@ pub struct Scene {
     pub instances: Vec<Instance>,
     pub lights: Vec<Light>,
     pub views: Vec<View>,
+    /// Scripted camera paths (for flicker measurements).
+    pub paths: Vec<CameraPath>,
     /// Ambient light (linear RGB), added unshadowed: `albedo · ambient` in DESIGN.md §3.
     pub ambient: Vec3,
 }
@@ -157,6 +159,7 @@ impl Scene {
             instances: Vec::new(),
             lights: Vec::new(),
             views: Vec::new(),
+            paths: Vec::new(),
             ambient: Vec3::splat(0.03),
         }
     }
@@ -228,6 +231,10 @@ impl Scene {
         self.views.iter().find(|v| v.name == name)
     }
 
+    pub fn path(&self, name: &str) -> Option<&CameraPath> {
+        self.paths.iter().find(|p| p.name == name)
+    }
+
     /// Finds a light by name or by decimal index.
     pub fn find_light(&self, name_or_index: &str) -> Option<LightId> {
         if let Some(i) = self.lights.iter().position(|l| l.name == name_or_index) {
@@ -279,6 +286,14 @@ impl Scene {
         }
         for (i, v) in self.views.iter().enumerate() {
             v.check().map_err(|e| at(format!("view[{i}] '{}'", v.name), e))?;
+        }
+        for (i, p) in self.paths.iter().enumerate() {
+            if p.keys.is_empty() {
+                return Err(at(format!("path[{i}] '{}'", p.name), "a path needs at least one view".into()));
+            }
+            for v in &p.keys {
+                v.check().map_err(|e| at(format!("path[{i}] '{}'", p.name), e))?;
+            }
         }
         let b = self.bounds();
         if b.is_empty() || !b.diagonal().is_finite() {

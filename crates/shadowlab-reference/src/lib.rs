@@ -21,6 +21,7 @@ pub mod bvh;
 pub mod images;
 pub mod metrics;
 pub mod surface;
+pub mod temporal;
 pub mod visibility;
 
 pub use bvh::{SceneBvh, Selection};

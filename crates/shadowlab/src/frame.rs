@@ -14,13 +14,16 @@ pub struct CameraUniform {
     pub position: Vec4,
     pub size: Vec4,
     pub depth: Vec4,
+    /// xyz: unit viewing direction.
+    pub forward: Vec4,
 }
 
 impl CameraUniform {
     /// From view and projection matrices (any convention wgpu accepts): `reversed_z` says whether the
     /// background (cleared) depth is 0 (reversed) or 1 (standard).
     pub fn new(view: Mat4, projection: Mat4, width: u32, height: u32, reversed_z: bool) -> Self {
-        let eye = view.inverse().w_axis.truncate();
+        let inv = view.inverse();
+        let eye = inv.w_axis.truncate();
         // The view without its translation: positions relative to the eye stay small and precise.
         let rotation = Mat4::from_mat3(glam::Mat3::from_mat4(view));
         Self {
@@ -29,12 +32,35 @@ impl CameraUniform {
             position: eye.extend(1.0),
             size: Vec4::new(width as f32, height as f32, 1.0 / width as f32, 1.0 / height as f32),
             depth: Vec4::new(if reversed_z { 0.0 } else { 1.0 }, 0.0, 0.0, 0.0),
+            forward: (-inv.z_axis.truncate()).normalize_or(Vec3::NEG_Z).extend(0.0),
         }
     }
 
     /// A shadowlab view rendered at `width × height` (reversed Z).
     pub fn from_view(view: &View, width: u32, height: u32) -> Self {
         Self::new(view.view_matrix(), view.projection(width as f32 / height.max(1) as f32), width, height, true)
+    }
+
+    /// The camera as a [`View`] (position, direction, field of view, near and far), recovered from
+    /// the matrices, for techniques that fit their maps to the view (cascades).
+    pub fn view(&self) -> View {
+        let rel = self.inv_view_proj_rel;
+        let at = |x: f32, y: f32, z: f32| rel.project_point3(Vec3::new(x, y, z));
+        let f = self.forward.truncate();
+        let background = self.depth.x;
+        let (near_z, far_z) = if background == 0.0 { (1.0, 1e-7) } else { (0.0, 1.0 - 1e-7) };
+        let near = at(0.0, 0.0, near_z).dot(f);
+        let far = at(0.0, 0.0, far_z).dot(f);
+        let top = at(0.0, 1.0, near_z);
+        let up = (top - f * top.dot(f)).normalize_or(Vec3::Y);
+        let fov_y = 2.0 * (top - f * top.dot(f)).length().atan2(near);
+        let position = self.position.truncate();
+        View { name: "camera".into(), position, target: position + f, up, fov_y, near, far: far.max(near * 1.001) }
+    }
+
+    /// Width over height.
+    pub fn aspect(&self) -> f32 {
+        self.size.x / self.size.y.max(1.0)
     }
 }
 

@@ -11,9 +11,11 @@
 //!   mapping) with readbacks for the reports.
 //! - [`technique`]: the technique contract and registry; [`techniques`]: the techniques.
 
+pub mod depth_range;
 pub mod frame;
 pub mod gpu;
 pub mod gpu_scene;
+pub mod kernel;
 pub mod renderer;
 pub mod shader;
 pub mod shadowmap;

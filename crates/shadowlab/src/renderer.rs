@@ -100,11 +100,15 @@ impl Shadows {
     pub fn stats(&self) -> TechniqueStats {
         self.lights.iter().fold(TechniqueStats::default(), |a, s| {
             let t = s.technique.stats();
+            let light = &self.scene.lights[s.light.index()].name;
+            let mut extra = a.extra;
+            extra.extend(t.extra.into_iter().map(|(k, v)| (format!("{light}: {k}"), v)));
             TechniqueStats {
                 memory_bytes: a.memory_bytes + t.memory_bytes + s.layer.bytes(),
                 passes: a.passes + t.passes,
                 draws: a.draws + t.draws,
                 triangles: a.triangles + t.triangles,
+                extra,
             }
         })
     }
@@ -678,4 +682,99 @@ fn gbuffer_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool) -
             cache: None,
         })
     })
+}
+
+/// Per-pixel analysis of the maps that shade one light (`overlay.wgsl`).
+#[derive(Debug, Clone)]
+pub struct MapOverlay {
+    pub width: u32,
+    pub height: u32,
+    /// The map (split, cube face) that shades each pixel; −1 for the background.
+    pub map: Vec<i32>,
+    /// Shadow-map texels per screen pixel (Lloyd's determinant): < 1 undersampled.
+    pub texels_per_pixel: Vec<f32>,
+    /// The pixel lies on a line of the projected texel grid.
+    pub grid_line: Vec<bool>,
+    /// The pixel projects inside its map.
+    pub on_map: Vec<bool>,
+}
+
+impl Renderer {
+    /// Analyses the maps of `light`'s technique for the last rendered frame; `None` when the
+    /// technique does not shade from one map per pixel (`none`, `sampled`). `grid` is the spacing of
+    /// the texel-grid lines in texels.
+    pub fn map_overlay(&self, light: LightId, grid: u32) -> Result<Option<MapOverlay>, GpuError> {
+        let Some(s) = self.shadows.lights.iter().find(|s| s.light == light) else { return Ok(None) };
+        let Some(maps) = s.technique.analysis() else { return Ok(None) };
+        let shared = &self.shadows.shared;
+        let device = &self.gpu.device;
+        let (w, h) = (self.width, self.height);
+        let layout = shared.layout("overlay", || {
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("overlay"),
+                entries: &[
+                    crate::technique::uniform_entry(0, wgpu::ShaderStages::COMPUTE),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 1,
+                        visibility: wgpu::ShaderStages::COMPUTE,
+                        ty: wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: wgpu::TextureFormat::Rgba32Float,
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                        },
+                        count: None,
+                    },
+                ],
+            })
+        });
+        let pipeline = shared.resolve_pipeline(
+            "overlay",
+            include_str!("overlay.wgsl"),
+            "main",
+            &[&crate::shadowmap::lookup_layout(shared), &layout, &crate::techniques::selection_layout(shared)],
+            &[],
+        );
+        let out = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("overlay"),
+            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba32Float,
+            usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let params =
+            util::uniform_buffer(device, "overlay params", bytemuck::cast_slice(&[grid.max(1) as f32, 0.0, 0.0, 0.0]));
+        let out_view = out.create_view(&Default::default());
+        let group2 = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("overlay"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&out_view) },
+            ],
+        });
+        let group0 = shared.resolve_bind_group(&self.surface, &s.light_buffer, &s.layer);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            for (i, g) in [&group0, maps.lookup, &group2, maps.selection].into_iter().enumerate() {
+                pass.set_bind_group(i as u32, Some(g), &[]);
+            }
+            pass.dispatch_workgroups(util::groups(w, 8), util::groups(h, 8), 1);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        let v = util::f32s(&util::read_texture(device, &self.gpu.queue, &out, 16)?);
+        let n = (w * h) as usize;
+        Ok(Some(MapOverlay {
+            width: w,
+            height: h,
+            map: (0..n).map(|i| v[4 * i] as i32).collect(),
+            texels_per_pixel: (0..n).map(|i| v[4 * i + 1]).collect(),
+            grid_line: (0..n).map(|i| v[4 * i + 2] > 0.5).collect(),
+            on_map: (0..n).map(|i| v[4 * i + 3] > 0.5).collect(),
+        }))
+    }
 }

@@ -12,6 +12,8 @@ const SHARED: &[(&str, &str)] = &[
     ("shadowmap.wgsl", include_str!("shaders/shadowmap.wgsl")),
     ("resolve.wgsl", include_str!("shaders/resolve.wgsl")),
     ("maplookup.wgsl", include_str!("shaders/maplookup.wgsl")),
+    ("pcfkernel.wgsl", include_str!("shaders/pcfkernel.wgsl")),
+    ("selection.wgsl", include_str!("shaders/selection.wgsl")),
 ];
 
 /// Expands `// #include "name"` directives. Panics on an unknown include: shaders are compiled into

@@ -67,7 +67,7 @@ pub const FACES: ParamDef =
     ParamDef::choice("faces", "back", &["back", "front", "both"], "faces of closed meshes rendered into the map");
 pub const SLOPE_BIAS: ParamDef = ParamDef::float("slope_bias", 1.5, 0.0, 20.0, "slope-scaled raster depth bias");
 pub const NORMAL_OFFSET: ParamDef =
-    ParamDef::float("normal_offset", 0.7, 0.0, 10.0, "lookup offset along the surface normal, in texels");
+    ParamDef::float("normal_offset", 0.3, 0.0, 10.0, "lookup offset along the surface normal, in texels");
 pub const CONSTANT_BIAS: ParamDef =
     ParamDef::float("constant_bias", 0.0, 0.0, 10.0, "lookup offset towards the light, in world units");
 
@@ -306,6 +306,8 @@ pub struct LightMap {
     pub raster: Raster,
     params: wgpu::Buffer,
     pub group: wgpu::BindGroup,
+    /// One map (or one cube) for `shaders/selection.wgsl`.
+    pub selection: wgpu::BindGroup,
     draws: u32,
 }
 
@@ -336,7 +338,8 @@ impl LightMap {
         let params = crate::util::uniform_buffer(&shared.gpu.device, "map params", bytemuck::bytes_of(&bias));
         let group = lookup_group(shared, &maps, &params, linear);
         let raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
-        Self { maps, frusta, raster, params, group, draws: 0 }
+        let selection = single_selection(shared);
+        Self { maps, frusta, raster, params, group, selection, draws: 0 }
     }
 
     /// Renders every view of the map.
@@ -412,5 +415,18 @@ pub fn lookup_group(shared: &Shared, maps: &ShadowMapArray, params: &wgpu::Buffe
         label: Some("map lookup"),
         layout: &lookup_layout(shared),
         entries: &entries,
+    })
+}
+
+/// `selection.wgsl`'s uniform for a single map (or cube): one "split" covering every depth.
+pub fn single_selection(shared: &Shared) -> wgpu::BindGroup {
+    let mut data = [0f32; 24];
+    data[0] = 1.0;
+    data[5] = f32::MAX;
+    let buffer = crate::util::uniform_buffer(&shared.gpu.device, "single selection", bytemuck::cast_slice(&data));
+    shared.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("single selection"),
+        layout: &crate::techniques::selection_layout(shared),
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
     })
 }

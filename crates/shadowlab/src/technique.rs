@@ -35,7 +35,7 @@ pub enum TechniqueError {
 }
 
 /// Resources and counts a technique reports.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct TechniqueStats {
     /// Bytes of GPU memory the technique holds (maps, buffers), not counting shared resources.
     pub memory_bytes: u64,
@@ -45,6 +45,8 @@ pub struct TechniqueStats {
     pub draws: u32,
     /// Triangles rasterised per frame for shadows.
     pub triangles: u64,
+    /// Technique-specific figures for the reports (`auto_near_latency_frames`, ...).
+    pub extra: Vec<(String, f64)>,
 }
 
 /// Everything a technique may use during a frame.
@@ -64,6 +66,14 @@ pub struct FrameContext<'a> {
     pub frame_index: u64,
 }
 
+/// The maps a technique looks up, for the analysis overlays (`shadowlab render --overlay`).
+pub struct MapAnalysis<'a> {
+    /// Group 1 of `shaders/maplookup.wgsl`.
+    pub lookup: &'a wgpu::BindGroup,
+    /// Group 3 of `shaders/selection.wgsl`.
+    pub selection: &'a wgpu::BindGroup,
+}
+
 /// The technique contract of DESIGN.md §5.
 pub trait ShadowTechnique: Send {
     /// The stable id used by the CLI and the reports.
@@ -74,6 +84,11 @@ pub trait ShadowTechnique: Send {
     /// Writes V for every pixel of the surface into `out`.
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer);
     fn stats(&self) -> TechniqueStats;
+    /// The maps behind the last frame, for techniques that shade each pixel from one map (hard,
+    /// pcf, cascaded); `None` for the others.
+    fn analysis(&self) -> Option<MapAnalysis<'_>> {
+        None
+    }
 }
 
 /// How to make a technique.

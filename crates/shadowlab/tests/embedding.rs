@@ -27,3 +27,25 @@ fn embedded_shadows_match_the_renderer() {
     assert!(relevant > 2000);
     assert!((differ as f64) < 0.005 * relevant as f64, "{differ} of {relevant}");
 }
+
+#[test]
+fn camera_uniform_recovers_the_view() {
+    use shadowlab::CameraUniform;
+    let view =
+        shadowlab_core::View::new("v", glam::Vec3::new(1.0, 2.0, 3.0), glam::Vec3::new(-4.0, 0.5, -2.0), 0.25, 700.0)
+            .with_fov_degrees(55.0);
+    for reversed in [true, false] {
+        let projection = if reversed {
+            view.projection(1.5)
+        } else {
+            glam::camera::rh::proj::directx::perspective(view.fov_y, 1.5, view.near, view.far)
+        };
+        let v = CameraUniform::new(view.view_matrix(), projection, 300, 200, reversed).view();
+        assert!((v.position - view.position).length() < 1e-4);
+        assert!(v.forward().dot(view.forward()) > 1.0 - 1e-5);
+        assert!((v.fov_y - view.fov_y).abs() < 1e-4, "{} vs {}", v.fov_y, view.fov_y);
+        assert!((v.near - view.near).abs() < 1e-3 * view.near);
+        // The far plane from a float inverse is approximate; 2%.
+        assert!((v.far - view.far).abs() < 0.02 * view.far, "{} vs {}", v.far, view.far);
+    }
+}

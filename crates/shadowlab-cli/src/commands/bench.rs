@@ -74,6 +74,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "time_ratio_over_hard": ratio,
             "memory_bytes": stats.memory_bytes, "passes": stats.passes, "draws": stats.draws,
             "shadow_triangles": stats.triangles,
+            "technique_stats": stats.extra.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
         }));
     }
     if results.iter().all(|r| r.3.gpu_median.is_none()) {

@@ -48,6 +48,13 @@ pub struct Args {
     /// Output directory.
     #[arg(long, default_value = "out/compare")]
     out: PathBuf,
+    /// Also measure `flicker` along a camera path: a path of the scene (`terrain`: `walk`) or
+    /// comma-separated view names.
+    #[arg(long)]
+    path: Option<String>,
+    /// Frames along the path (default: the path's own, or 24 for a list of views).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=10000))]
+    path_frames: Option<u32>,
 }
 
 struct LightRef<'a> {
@@ -188,6 +195,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "memory_bytes": stats.memory_bytes,
             "frames": m.timing.frames, "warmup": m.timing.warmup,
             "passes": stats.passes, "draws": stats.draws, "shadow_triangles": stats.triangles,
+            "technique_stats": stats.extra.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
         }));
         outcomes.push(Outcome {
             spec: spec.spec.clone(),
@@ -198,7 +206,20 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     }
     bar.finish_and_clear();
 
-    // 4. Reports.
+    // 4. Temporal stability along a path.
+    let mut path_json = Value::Null;
+    if let Some(path_spec) = &args.path {
+        let path = resolve_path(&setup, path_spec, args.path_frames)?;
+        let views = path.views();
+        let flickers = measure_flicker(&gpu, &setup, &specs, &views, &settings)?;
+        for (e, f) in entries.iter_mut().zip(&flickers) {
+            e["flicker"] = json!(f.fraction());
+            e["flicker_pixels"] = json!(f.pixels);
+        }
+        path_json = json!({ "name": path.name, "frames": views.len() });
+    }
+
+    // 5. Reports.
     let hard_ms = outcomes.iter().find(|o| o.spec == "hard").map(|o| o.timing.frame_ms());
     for (e, o) in entries.iter_mut().zip(&outcomes) {
         e["time_ratio_over_hard"] = hard_ms.map(|h| json!(o.timing.frame_ms() / h)).unwrap_or(Value::Null);
@@ -215,6 +236,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         "emitter_scale": args.scene.emitter_scale,
         "lights": refs.iter().map(|r| json!({"index": r.id.0, "name": r.name, "type": setup.scene.lights[r.id.index()].type_name()})).collect::<Vec<_>>(),
         "techniques": entries,
+        "path": path_json,
     });
     std::fs::write(args.out.join("metrics.json"), serde_json::to_string_pretty(&metrics)?)?;
     let html = report_html(&setup, &metrics, &outcomes, &refs, &encode_rgb_png(&reference_image, w, h)?, &args.out)?;
@@ -237,20 +259,29 @@ fn fmt(v: &Value, digits: usize) -> String {
 }
 
 fn print_summary(metrics: &Value) {
+    let flicker = !metrics["path"].is_null();
     println!(
-        "{:<34} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8}",
-        "technique", "RMSE", "wrong%", "pen.RMSE", "GPU ms", "×hard", "MiB"
+        "{:<34} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8}{}",
+        "technique",
+        "RMSE",
+        "wrong%",
+        "pen.RMSE",
+        "GPU ms",
+        "×hard",
+        "MiB",
+        if flicker { "  flicker%" } else { "" }
     );
     for t in metrics["techniques"].as_array().into_iter().flatten() {
         println!(
-            "{:<34} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8.1}",
+            "{:<34} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8.1}{}",
             t["spec"].as_str().unwrap_or(""),
             fmt(&t["rmse"], 4),
             t["wrong_frac"].as_f64().map(|x| format!("{:.2}", 100.0 * x)).unwrap_or_default(),
             fmt(&t["penumbra_rmse"], 4),
             fmt(&t["gpu_ms"]["median"], 2),
             fmt(&t["time_ratio_over_hard"], 2),
-            t["memory_bytes"].as_f64().unwrap_or(0.0) / (1024.0 * 1024.0)
+            t["memory_bytes"].as_f64().unwrap_or(0.0) / (1024.0 * 1024.0),
+            if flicker { format!("  {:>8.3}", 100.0 * t["flicker"].as_f64().unwrap_or(0.0)) } else { String::new() }
         );
     }
 }
@@ -388,4 +419,92 @@ fn report_html(
         noise = r["noise_floor_rmse"].as_f64().unwrap_or(0.0),
         frames = outcomes.first().map(|o| o.timing.frames).unwrap_or(0),
     ))
+}
+
+/// A path of the scene, or views named in a comma-separated list.
+fn resolve_path(setup: &Setup, spec: &str, frames: Option<u32>) -> Result<shadowlab_core::CameraPath> {
+    if let Some(p) = setup.scene.path(spec) {
+        let mut p = p.clone();
+        if let Some(f) = frames {
+            p.frames = f;
+        }
+        return Ok(p);
+    }
+    let keys = spec
+        .split(',')
+        .map(|n| {
+            setup.scene.view(n.trim()).cloned().with_context(|| {
+                let paths: Vec<&str> = setup.scene.paths.iter().map(|p| p.name.as_str()).collect();
+                let views: Vec<&str> = setup.scene.views.iter().map(|v| v.name.as_str()).collect();
+                format!(
+                    "--path '{spec}': '{n}' is neither a path ({}) nor a view ({})",
+                    paths.join(", "),
+                    views.join(", ")
+                )
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(shadowlab_core::CameraPath { name: spec.to_owned(), keys, frames: frames.unwrap_or(24) })
+}
+
+/// Renders every technique along `views` and counts flicker against the reference of each frame.
+fn measure_flicker(
+    gpu: &shadowlab::Gpu,
+    setup: &Setup,
+    specs: &[TechniqueSpec],
+    views: &[shadowlab_core::View],
+    settings: &ReferenceSettings,
+) -> Result<Vec<shadowlab_reference::temporal::FlickerStats>> {
+    use shadowlab_reference::temporal::{FlickerStats, FrameSample, flicker};
+    let none = TechniqueSpec::parse("none", &[])?;
+    let mut base = renderer(gpu, setup, &none)?;
+    let bvh = SceneBvh::build(&setup.scene, Selection::Casters);
+    let lights: Vec<(u32, &shadowlab_core::Light)> =
+        setup.lights.iter().map(|id| (id.0, &setup.scene.lights[id.index()])).collect();
+    let bar = progress::bar((views.len() * (1 + specs.len())) as u64, "path: reference per frame");
+    let mut surfaces = Vec::with_capacity(views.len());
+    let mut references: Vec<Vec<Vec<f32>>> = Vec::with_capacity(views.len());
+    for v in views {
+        base.set_view(v);
+        base.render()?;
+        let surface = base.read_surface()?;
+        let r = reference(&bvh, &surface, &lights, settings, None);
+        references.push(r.lights.into_iter().map(|l| l.values).collect());
+        surfaces.push(surface);
+        bar.inc(1);
+    }
+    let mut out = Vec::with_capacity(specs.len());
+    for spec in specs {
+        bar.set_message(format!("path: {}", spec.spec));
+        let mut r = renderer(gpu, setup, spec)?;
+        let mut stats = FlickerStats::default();
+        let mut previous: Option<Vec<Vec<f32>>> = None;
+        for (t, v) in views.iter().enumerate() {
+            r.set_view(v);
+            r.render()?;
+            let values: Vec<Vec<f32>> = setup
+                .lights
+                .iter()
+                .map(|id| r.read_visibility(*id).map(|o| o.unwrap_or_default()))
+                .collect::<Result<_, _>>()?;
+            if let Some(prev) = &previous {
+                for k in 0..values.len() {
+                    let a = FrameSample {
+                        view: &views[t - 1],
+                        surface: &surfaces[t - 1],
+                        value: &prev[k],
+                        reference: &references[t - 1][k],
+                    };
+                    let b =
+                        FrameSample { view: v, surface: &surfaces[t], value: &values[k], reference: &references[t][k] };
+                    stats.add(&flicker(&a, &b));
+                }
+            }
+            previous = Some(values);
+            bar.inc(1);
+        }
+        out.push(stats);
+    }
+    bar.finish_and_clear();
+    Ok(out)
 }

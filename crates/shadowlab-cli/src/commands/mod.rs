@@ -1,3 +1,4 @@
+pub mod analyze;
 pub mod bench;
 pub mod compare;
 pub mod reference;

@@ -6,6 +6,7 @@ use anyhow::{Context, Result};
 use shadowlab_reference::images::write_rgb_png;
 
 use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, renderer};
+use crate::overlay::{Overlay, compose};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -16,6 +17,12 @@ pub struct Args {
     /// Output PNG file.
     #[arg(long)]
     out: PathBuf,
+    /// Draw an analysis overlay for the first shadowed light (hard, pcf and cascaded maps).
+    #[arg(long, value_enum)]
+    overlay: Option<Overlay>,
+    /// Texels between the lines of the texel-grid overlay.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    grid: u32,
 }
 
 pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
@@ -28,7 +35,17 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let gpu = open_gpu(global)?;
     let mut r = renderer(&gpu, &setup, spec)?;
     let report = r.render()?;
-    let image = r.read_image()?;
+    let mut image = r.read_image()?;
+    if let Some(kind) = args.overlay {
+        let light = *setup.lights.first().context("no light to analyse")?;
+        let data = r.map_overlay(light, args.grid)?.with_context(|| {
+            format!(
+                "overlays need a technique that shades from one map per pixel (hard, pcf, cascaded), not '{}'",
+                spec.spec
+            )
+        })?;
+        image = compose(&image, &data, kind)?;
+    }
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }

@@ -32,6 +32,17 @@ struct File {
     light: Vec<Spanned<LightDef>>,
     #[serde(default)]
     view: Vec<Spanned<ViewDef>>,
+    #[serde(default)]
+    path: Vec<Spanned<PathDef>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PathDef {
+    name: String,
+    /// Names of views (of this file or the base scene), visited in order.
+    views: Vec<String>,
+    frames: Option<u32>,
 }
 
 #[derive(Deserialize)]
@@ -220,6 +231,29 @@ impl Context<'_> {
             v.check().map_err(|e| SceneError::invalid(at, e))?;
             scene.views.retain(|old| old.name != v.name);
             scene.views.push(v);
+        }
+        for (i, def) in file.path.iter().enumerate() {
+            let d = def.get_ref();
+            let at = self.at(def.span(), format!("path[{i}] '{}'", d.name));
+            let frames = d.frames.unwrap_or(30);
+            if !(2..=10_000).contains(&frames) {
+                return Err(SceneError::invalid(at, format!("frames {frames} must be in 2..=10000")));
+            }
+            let keys = d
+                .views
+                .iter()
+                .map(|n| {
+                    scene
+                        .view(n)
+                        .cloned()
+                        .ok_or_else(|| SceneError::invalid(at.clone(), format!("view '{n}' is not defined")))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            if keys.is_empty() {
+                return Err(SceneError::invalid(at, "a path needs at least one view"));
+            }
+            scene.paths.retain(|old| old.name != d.name);
+            scene.paths.push(crate::camera::CameraPath { name: d.name.clone(), keys, frames });
         }
         Ok(scene)
     }
@@ -526,6 +560,16 @@ intensity = 20
 name = "top"
 position = [0, 5, 1]
 target = [0, 0, 0]
+
+[[view]]
+name = "side"
+position = [5, 2, 0]
+target = [0, 0, 0]
+
+[[path]]
+name = "swing"
+views = ["top", "side"]
+frames = 12
 "#;
 
     #[test]
@@ -543,6 +587,7 @@ target = [0, 0, 0]
             }
             ref k => panic!("{k:?}"),
         }
+        assert_eq!(s.path("swing").unwrap().views().len(), 12);
         s.validate().unwrap();
     }
 
@@ -565,6 +610,8 @@ target = [0, 0, 0]
         assert!(e.to_string().contains("intensity"), "{e}");
         let e = parse_str("[[object]]\nfile = \"missing.obj\"\n").unwrap_err();
         assert!(e.to_string().contains("missing.obj"), "{e}");
+        let e = parse_str("[[path]]\nname = \"p\"\nviews = [\"nowhere\"]\n").unwrap_err();
+        assert!(e.to_string().contains("'nowhere'") && e.to_string().contains("path[0]"), "{e}");
         let e = parse_str("[[object]]\nprimitive = { type = \"sphere\", radius = -1 }\n").unwrap_err();
         assert!(e.to_string().contains("radius"), "{e}");
     }

@@ -225,12 +225,26 @@ pub fn build(options: &ParamSet) -> Scene {
     ));
 
     let eye = |x: f32, z: f32, above: f32| Vec3::new(x, ground.height(x, z) + above, z);
+    // Standing on the ground looking across the terrain, tilted down so that the ground starts a few
+    // metres away: perspective aliasing is worst right there.
     let ground_from = eye(-170.0, 330.0, 1.8);
-    let ground_to = Vec3::new(90.0, ground.height(90.0, -330.0) - 10.0, -330.0);
+    let ahead = Vec2::new(90.0 + 170.0, -330.0 - 330.0).normalize();
+    let near_ground = Vec2::new(-170.0, 330.0) + ahead * 40.0;
+    let ground_to = Vec3::new(near_ground.x, ground.height(near_ground.x, near_ground.y) - 4.0, near_ground.y);
     let duel_from = eye(250.0, 180.0, 2.0);
     let to_sun = -Vec2::new(sun_direction().x, sun_direction().z).normalize();
     let duel_to_xz = Vec2::new(duel_from.x, duel_from.z) + to_sun * 600.0;
     let duel_to = Vec3::new(duel_to_xz.x, ground.height(duel_to_xz.x, duel_to_xz.y) + 10.0, duel_to_xz.y);
+    // A slow walk (5 cm and 0.05° of turn per frame) along the ground view: what flickers here is
+    // the shadow map's rasterisation, not the scene.
+    let ground_view = View::new("ground", ground_from, ground_to, 0.5, 1000.0).with_fov_degrees(60.0);
+    let walk_end = {
+        let step = (ground_to - ground_from).with_y(0.0).normalize() * 1.5;
+        let turn = glam::Quat::from_rotation_y(1.5f32.to_radians());
+        let to = ground_from + step + turn * (ground_to - ground_from);
+        View { position: ground_from + step, target: to, ..ground_view.clone() }
+    };
+    scene.paths.push(crate::camera::CameraPath { name: "walk".into(), keys: vec![ground_view, walk_end], frames: 30 });
     scene.views = vec![
         View::new("ground", ground_from, ground_to, 0.5, 1000.0).with_fov_degrees(60.0),
         View::new("overhead", Vec3::new(0.0, 700.0, 0.0), Vec3::ZERO, 1.0, 2000.0)

@@ -11,7 +11,14 @@ struct Camera {
     size: vec4<f32>,
     // x: depth of the background (0 with reversed Z, 1 with standard Z).
     depth: vec4<f32>,
+    // xyz: unit viewing direction.
+    forward: vec4<f32>,
 };
+
+// Distance of p from the eye along the viewing direction.
+fn view_depth(cam: Camera, p: vec3<f32>) -> f32 {
+    return dot(p - cam.position.xyz, cam.forward.xyz);
+}
 
 // NDC of the centre of `pixel` (top-left origin, y up in NDC).
 fn ndc_of_pixel(pixel: vec2<u32>, size: vec4<f32>) -> vec2<f32> {

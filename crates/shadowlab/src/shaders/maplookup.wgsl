@@ -34,7 +34,7 @@ fn map_layer(p: vec3<f32>, views_base: u32) -> u32 {
 fn map_point(p: vec3<f32>, n: vec3<f32>, l: vec3<f32>, views_base: u32) -> MapPoint {
     var mp: MapPoint;
     let first = map_layer(p, views_base);
-    mp.texel = shadow_texel_size(shadow_views[first], p);
+    mp.texel = shadow_texel_size(shadow_views[first], p, map_params.bias.z);
     let q = p + n * (map_params.bias.x * mp.texel) + l * map_params.bias.y;
     mp.layer = map_layer(q, views_base);
     mp.uvz = shadow_project(shadow_views[mp.layer], q);

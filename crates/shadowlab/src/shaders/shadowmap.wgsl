@@ -21,20 +21,34 @@ fn cube_face(d: vec3<f32>) -> u32 {
     return select(5u, 4u, d.z >= 0.0);
 }
 
-// World size of one shadow-map texel at p.
-fn shadow_texel_size(v: ShadowView, p: vec3<f32>) -> f32 {
-    if (v.eye.w > 0.5) {
-        return v.axis.w;
-    }
-    return v.axis.w * max(dot(p - v.eye.xyz, v.axis.xyz), 0.0);
-}
-
 // Map coordinates (u, v in [0, 1], v down) and reversed-Z depth of p.
 fn shadow_project(v: ShadowView, p: vec3<f32>) -> vec3<f32> {
     let c = v.view_proj * vec4<f32>(p, 1.0);
     let ndc = c.xyz / c.w;
     return vec3<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y, ndc.z);
 }
+
+// World size of one shadow-map texel at p (the larger side of its footprint across the light
+// ray), measured through the view's own projection so that it holds for warped maps too.
+fn shadow_texel_size(v: ShadowView, p: vec3<f32>, map_size: f32) -> f32 {
+    var ray = v.axis.xyz;
+    var nominal = v.axis.w;
+    if (v.eye.w < 0.5) {
+        ray = normalize(p - v.eye.xyz);
+        nominal = v.axis.w * max(dot(p - v.eye.xyz, v.axis.xyz), 1.0e-6);
+    }
+    var t = cross(ray, vec3<f32>(0.0, 1.0, 0.0));
+    if (dot(t, t) < 1.0e-6) {
+        t = cross(ray, vec3<f32>(1.0, 0.0, 0.0));
+    }
+    t = normalize(t);
+    let b = cross(ray, t);
+    let o = shadow_project(v, p).xy;
+    let du = length(shadow_project(v, p + t * nominal).xy - o) * map_size;
+    let dv = length(shadow_project(v, p + b * nominal).xy - o) * map_size;
+    return nominal / max(min(du, dv), 1.0e-9);
+}
+
 
 // True when a projected point lies on the map (outside it nothing is known: treat as lit).
 fn shadow_on_map(uvz: vec3<f32>) -> bool {

@@ -14,7 +14,7 @@ use shadowlab_core::{Light, ParamSet};
 use crate::frame::VisibilityLayer;
 use crate::shadowmap::{LightMap, lookup_layout};
 use crate::technique::{
-    FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+    FrameContext, MapAnalysis, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
 };
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -66,9 +66,13 @@ impl ShadowTechnique for Hard {
         match &self.map {
             Some(m) => {
                 let (passes, draws, triangles) = m.counts(self.triangles);
-                TechniqueStats { memory_bytes: m.bytes(), passes: passes + 1, draws, triangles }
+                TechniqueStats { memory_bytes: m.bytes(), passes: passes + 1, draws, triangles, extra: Vec::new() }
             }
             None => TechniqueStats::default(),
         }
+    }
+
+    fn analysis(&self) -> Option<MapAnalysis<'_>> {
+        self.map.as_ref().map(|m| MapAnalysis { lookup: &m.group, selection: &m.selection })
     }
 }

@@ -1,5 +1,6 @@
 //! The shadow techniques, one module each with its WGSL beside it.
 
+mod cascaded;
 mod hard;
 mod none;
 mod pcf;
@@ -7,7 +8,9 @@ mod sampled;
 
 use crate::technique::TechniqueInfo;
 
+pub use cascaded::{cascade_settings, selection_layout};
+
 /// Every light type.
 pub(crate) const ALL_LIGHTS: &[&str] = &["point", "spot", "directional", "rect"];
 
-pub(crate) static REGISTRY: &[TechniqueInfo] = &[none::INFO, hard::INFO, pcf::INFO, sampled::INFO];
+pub(crate) static REGISTRY: &[TechniqueInfo] = &[none::INFO, hard::INFO, pcf::INFO, sampled::INFO, cascaded::INFO];

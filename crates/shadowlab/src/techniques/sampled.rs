@@ -272,6 +272,7 @@ impl ShadowTechnique for Sampled {
                 passes: s.samples * (s.faces + 1) + 1,
                 draws: s.draws,
                 triangles: self.triangles * u64::from(s.samples * s.faces),
+                extra: vec![("samples".into(), f64::from(s.samples)), ("views_per_sample".into(), f64::from(s.faces))],
             },
             None => TechniqueStats::default(),
         }

@@ -1,0 +1,52 @@
+//! Analysis overlays (`render --overlay`): the colours of Stingl 2011 §5.2 over the lit image.
+
+use anyhow::{Result, bail};
+use shadowlab::renderer::MapOverlay;
+use shadowlab_core::cascades::{sampling_colour, split_colour};
+
+/// Which overlay.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Overlay {
+    /// Split (or cube face) colours: red, yellow, green, blue.
+    Splits,
+    /// The projected shadow-map texel grid.
+    Texels,
+    /// Shadow-map texels per screen pixel: red undersampled, green 1:1, blue oversampled.
+    Sampling,
+    /// What caches hold (for caching techniques).
+    Cache,
+}
+
+fn blend(dst: &mut [u8], colour: glam::Vec3, alpha: f32) {
+    for (d, c) in dst.iter_mut().zip(colour.to_array()) {
+        *d = ((1.0 - alpha) * f32::from(*d) + alpha * 255.0 * c.clamp(0.0, 1.0)).round() as u8;
+    }
+}
+
+/// `image` (RGB) with the overlay drawn over it.
+pub fn compose(image: &[u8], o: &MapOverlay, kind: Overlay) -> Result<Vec<u8>> {
+    let mut out = image.to_vec();
+    for i in 0..o.map.len() {
+        if o.map[i] < 0 {
+            continue;
+        }
+        let px = &mut out[3 * i..3 * i + 3];
+        match kind {
+            Overlay::Splits => blend(px, split_colour(o.map[i] as usize), 0.45),
+            Overlay::Texels => {
+                if o.grid_line[i] {
+                    blend(px, glam::Vec3::ZERO, 0.9);
+                }
+            }
+            Overlay::Sampling => {
+                if o.on_map[i] {
+                    blend(px, sampling_colour(o.texels_per_pixel[i]), 0.8);
+                }
+            }
+            Overlay::Cache => {
+                bail!("overlay 'cache': no technique caches its maps yet (caching comes with the semi-static work)")
+            }
+        }
+    }
+    Ok(out)
+}

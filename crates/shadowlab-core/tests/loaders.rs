@@ -226,4 +226,5 @@ fn documented_example_is_valid() {
     // The base scene's panel first, then the file's four lights.
     assert_eq!(kinds, ["rect", "rect", "point", "spot", "directional"]);
     assert!(s.instances.iter().any(|i| i.name == "bunny"));
+    assert_eq!(s.path("swing").unwrap().views().len(), 30);
 }

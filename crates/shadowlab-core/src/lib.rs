@@ -29,6 +29,7 @@ pub mod scene;
 pub mod scenes;
 pub mod surface;
 pub mod topology;
+pub mod volumes;
 
 pub use bounds::Aabb;
 pub use camera::{CameraPath, View};

@@ -18,7 +18,7 @@
 //! The result, counted with the signed crossing rule (front faces −1, back faces +1 along a ray
 //! towards the viewer, Haines 1994), is positive exactly inside the shadow.
 
-use glam::{Affine3A, Vec3, Vec4};
+use glam::{Affine3A, Mat4, Vec3, Vec4};
 
 use crate::topology::Topology;
 
@@ -178,6 +178,307 @@ pub fn enclosure_count(volume: &ShadowVolume, p: Vec3, dir: Vec3, far: f32) -> i
     count
 }
 
+
+impl LightSource {
+    /// The source of a light's centre (area lights: their centre; the sun: its direction).
+    pub fn of(light: &crate::Light) -> Self {
+        match light.kind {
+            crate::LightKind::Directional { direction, .. } => Self::Directional(direction),
+            _ => Self::Point(light.position().unwrap_or(Vec3::ZERO)),
+        }
+    }
+
+    /// The source of one emitter sample.
+    pub fn of_sample(sample: crate::sampling::EmitterSample) -> Self {
+        match sample {
+            crate::sampling::EmitterSample::Point(p) => Self::Point(p),
+            crate::sampling::EmitterSample::Direction(towards) => Self::Directional(-towards),
+        }
+    }
+
+    /// `xyz`: position or direction of travel; `w`: 1 for a point, 0 for a direction (as shaders
+    /// take it).
+    pub fn to_vec4(&self) -> Vec4 {
+        match *self {
+            Self::Point(p) => p.extend(1.0),
+            Self::Directional(d) => d.normalize_or(Vec3::NEG_Y).extend(0.0),
+        }
+    }
+}
+
+/// Signed count of the occluding faces of one caster that the segment from `p` to the light
+/// crosses: the number of its shadow volumes that contain `p` (each occluding face's own volume,
+/// the infinite frustum behind it, contains exactly the points whose light segment crosses it; the
+/// silhouette volume is their sum with the inner sides cancelled). This is the stencil start value
+/// at the eye for the robust depth pass (Hasselgren 2003 §3.3.2, NOTES-001 §1.9: "the viewpoint is
+/// in shadow if a ray from the viewpoint to the light intersects any polygon").
+pub fn crossings(topo: &Topology, transform: &Affine3A, light: &LightSource, two_sided: bool, p: Vec3) -> u32 {
+    let world: Vec<Vec3> = topo.positions.iter().map(|&q| transform.transform_point3(q)).collect();
+    let mirror = transform.matrix3.determinant() < 0.0;
+    let signs = face_signs(topo, &world, light, two_sided, mirror);
+    let (dir, len) = match *light {
+        LightSource::Point(l) => ((l - p).normalize_or(Vec3::Y), p.distance(l)),
+        LightSource::Directional(d) => (-d.normalize_or(Vec3::NEG_Y), f32::INFINITY),
+    };
+    let mut count = 0;
+    for (t, &s) in topo.triangles.iter().zip(&signs) {
+        if s == 0 {
+            continue;
+        }
+        let [a, b, c] = t.map(|i| world[i as usize]);
+        let (e1, e2) = (b - a, c - a);
+        let h = dir.cross(e2);
+        let det = e1.dot(h);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let o = p - a;
+        let u = o.dot(h) / det;
+        let q = o.cross(e1);
+        let v = dir.dot(q) / det;
+        let dist = e2.dot(q) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && dist > 0.0 && dist < len {
+            count += 1;
+        }
+    }
+    count
+}
+
+/// The camera as shadow volumes see it: its view-projection (any perspective projection wgpu
+/// accepts, reversed or standard depth, finite or infinite far plane) and the NDC depth of its
+/// near plane (1 with reversed Z, 0 with standard Z).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VolumeCamera {
+    pub view_proj: Mat4,
+    pub eye: Vec3,
+    pub near_ndc_depth: f32,
+}
+
+/// Volumes are drawn with their own depth mapping, z_ndc = ε + (1 − ε)·w_near / w_clip: reversed,
+/// with an infinite far plane at ε instead of 0, so that vertices at infinity (w = 0) rasterise
+/// inside the depth range even without depth clamping (Everitt & Kilgard 2002's infinite
+/// projection; NOTES-001 §1.4). The surface's depth is converted to the same mapping.
+pub const INFINITY_DEPTH: f32 = 1.0 / 1_048_576.0;
+
+impl VolumeCamera {
+    /// The clip-space `w` of points on the near plane (the near distance for a standard projection).
+    pub fn near_w(&self) -> f32 {
+        let corner = self.near_corners()[0];
+        self.view_proj.row(3).dot(corner.extend(1.0))
+    }
+
+    /// The near-plane rectangle's corners: NDC (−1, −1), (1, −1), (1, 1), (−1, 1).
+    pub fn near_corners(&self) -> [Vec3; 4] {
+        let inv = self.view_proj.as_dmat4().inverse();
+        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, y)| {
+            inv.project_point3(glam::DVec3::new(x, y, f64::from(self.near_ndc_depth))).as_vec3()
+        })
+    }
+
+    /// Unit normal of the near plane, pointing away from the eye.
+    pub fn forward(&self) -> Vec3 {
+        self.view_proj.row(3).truncate().normalize_or(Vec3::NEG_Z)
+    }
+
+    /// World → clip for volumes: the camera's x, y and w rows, with depth replaced by the infinite
+    /// reversed mapping of [`INFINITY_DEPTH`].
+    pub fn volume_matrix(&self) -> Mat4 {
+        let m = self.view_proj;
+        let (r0, r1, r3) = (m.row(0), m.row(1), m.row(3));
+        let r2 = INFINITY_DEPTH * r3 + (1.0 - INFINITY_DEPTH) * self.near_w() * Vec4::W;
+        Mat4::from_cols(r0, r1, r2, r3).transpose()
+    }
+
+    /// The planes (homogeneous, `plane · (x, w) ≥ 0` inside) of the frustum through the NDC
+    /// rectangle `rect` = [x0, y0, x1, y1], and the near plane: polygons outside one of them draw
+    /// nothing (Hasselgren 2003 §3.3.1.2, NOTES-001 §1.8.2).
+    pub fn planes(&self, rect: [f32; 4]) -> [Vec4; 5] {
+        let m = self.volume_matrix();
+        let (r0, r1, r2, r3) = (m.row(0), m.row(1), m.row(2), m.row(3));
+        [r0 - rect[0] * r3, rect[2] * r3 - r0, r1 - rect[1] * r3, rect[3] * r3 - r1, r3 - r2]
+    }
+
+    /// A sphere around the pyramid of the eye and the near-plane rectangle (Toromanoff 2005 §VI.2.a:
+    /// z-pass fails only where this pyramid meets a volume).
+    pub fn near_pyramid_sphere(&self) -> (Vec3, f32) {
+        let corners = self.near_corners();
+        let centre = (corners.iter().copied().sum::<Vec3>() + self.eye) / 5.0;
+        let radius = corners.iter().chain([&self.eye]).map(|c| c.distance(centre)).fold(0.0, f32::max);
+        (centre, radius * 1.001 + 1e-6)
+    }
+
+    /// The NDC rectangle [x0, y0, x1, y1] that bounds a sphere, or `None` when it may cover the
+    /// whole screen (it reaches behind the near plane) or lies entirely outside it.
+    pub fn sphere_rect(&self, centre: Vec3, radius: f32) -> SphereRect {
+        let m = self.view_proj;
+        let near_w = self.near_w();
+        let mut rect = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+        if m.row(3).dot(centre.extend(1.0)) + radius * m.row(3).truncate().length() <= near_w {
+            return SphereRect::Outside;
+        }
+        // The sphere's bounding box: conservative, and its corners project like any point.
+        for i in 0..8 {
+            let o = Vec3::new(
+                if i & 1 == 0 { -radius } else { radius },
+                if i & 2 == 0 { -radius } else { radius },
+                if i & 4 == 0 { -radius } else { radius },
+            );
+            let c = m * (centre + o).extend(1.0);
+            if c.w <= near_w {
+                return SphereRect::Full;
+            }
+            rect[0] = rect[0].min(c.x / c.w);
+            rect[1] = rect[1].min(c.y / c.w);
+            rect[2] = rect[2].max(c.x / c.w);
+            rect[3] = rect[3].max(c.y / c.w);
+        }
+        if rect[0] >= 1.0 || rect[1] >= 1.0 || rect[2] <= -1.0 || rect[3] <= -1.0 {
+            return SphereRect::Outside;
+        }
+        SphereRect::Rect([rect[0].max(-1.0), rect[1].max(-1.0), rect[2].min(1.0), rect[3].min(1.0)])
+    }
+
+    /// Hornus et al. 2005's ZP+ (Toromanoff 2005 alg. 10, NOTES-000 §I): a projection from the
+    /// light whose far plane is the camera's near plane and whose image is the camera's image of
+    /// that plane, pixel for pixel. Rendering the occluders' light caps with it counts, for every
+    /// pixel, the volumes that contain the pixel's point on the near plane: the stencil start value
+    /// for z-pass. `None` when the light lies in (or too close to) the near plane, where the
+    /// frustum is flat (the known failure: fall back to z-fail). `bounds` holds every occluder.
+    pub fn zp_plus(&self, light: &LightSource, bounds: &crate::Aabb) -> Option<ZpPlus> {
+        use glam::{DMat4, DVec3, DVec4};
+        let corners = self.near_corners().map(|c| c.as_dvec3());
+        let centre = corners.iter().copied().sum::<DVec3>() / 4.0;
+        let m = self.view_proj.as_dmat4();
+        let f = m.row(3).truncate().normalize_or(DVec3::NEG_Z);
+        let near_w = m.row(3).dot(corners[0].extend(1.0));
+        let (r0, r1) = (m.row(0) / near_w, m.row(1) / near_w);
+        // Distance of the eye from the near plane: the length scale for "too close".
+        let scale = (centre - self.eye.as_dvec3()).dot(f).abs().max(1e-9);
+        let tolerance = f64::from(ZP_PLUS_TOLERANCE);
+        match *light {
+            LightSource::Point(l) => {
+                let l = l.as_dvec3();
+                let n_dist = f.dot(centre - l);
+                if n_dist.abs() <= tolerance * scale {
+                    return None;
+                }
+                // Relative to the light, x' = x − L: σ = f·x'/n_dist is 0 at the light and 1 on
+                // the near plane, and x is seen on the plane at q = L + x'/σ, so σ·ndc(q) is linear
+                // in x'.
+                let sigma = (f / n_dist).extend(0.0);
+                let row = |r: DVec4| r.dot(l.extend(1.0)) * sigma + r.truncate().extend(0.0);
+                // Depth (1/σ − 1)·δ/(1 − δ): 0 on the near plane, 1 at σ = δ (just off the light),
+                // clipped beyond both. Zero at the plane keeps the clip exact where it matters.
+                let delta = 1e-6;
+                let z = (DVec4::W - sigma) * (delta / (1.0 - delta));
+                let matrix = DMat4::from_cols(row(r0), row(r1), z, sigma).transpose();
+                Some(ZpPlus { matrix: matrix.as_mat4(), origin: l.as_vec3() })
+            }
+            LightSource::Directional(d) => {
+                let d = d.as_dvec3().normalize_or(DVec3::NEG_Y);
+                let fd = f.dot(d);
+                if fd.abs() <= tolerance {
+                    return None;
+                }
+                // Relative to the plane's centre, x' = x − c: x lies t = −f·x'/(f·d) upstream of
+                // the plane along the light, and is seen on it at q = x + t·d.
+                let t = (-f / fd).extend(0.0);
+                let far = bounds
+                    .corners()
+                    .iter()
+                    .map(|p| t.dot((p.as_dvec3() - centre).extend(1.0)))
+                    .fold(0.0f64, f64::max)
+                    * 1.01
+                    + 1e-3;
+                let row = |r: DVec4| r.truncate().extend(r.dot(centre.extend(1.0))) + r.truncate().dot(d) * t;
+                // Depth t/far: 0 on the near plane, clipped beyond it.
+                let z = t / far;
+                let matrix = DMat4::from_cols(row(r0), row(r1), z, DVec4::W).transpose();
+                Some(ZpPlus { matrix: matrix.as_mat4(), origin: centre.as_vec3() })
+            }
+        }
+    }
+}
+
+/// The ZP+ projection: clip = `matrix` · (x − `origin`, 1). Relative coordinates keep the
+/// f32 arithmetic of the shader away from cancellation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZpPlus {
+    pub matrix: Mat4,
+    pub origin: Vec3,
+}
+
+/// How close to the near plane the light may come before ZP+ gives up, as a fraction of the near
+/// distance (point lights), or as the cosine between the sun and the plane (directional lights).
+pub const ZP_PLUS_TOLERANCE: f32 = 1e-2;
+
+/// Where a sphere lands on screen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SphereRect {
+    Full,
+    Outside,
+    /// NDC [x0, y0, x1, y1].
+    Rect([f32; 4]),
+}
+
+/// Toromanoff's conservative skip test (2005 §VI.2.a, NOTES-000 §I): may the shadow volume of a
+/// caster inside the sphere (`centre`, `radius`) touch the sphere (`q`, `rho`)? The volume lies
+/// in the cone from a point light tangent to the caster's sphere (a half-cylinder for the sun).
+pub fn sphere_volume_touches(light: &LightSource, centre: Vec3, radius: f32, q: Vec3, rho: f32) -> bool {
+    if centre.distance(q) <= radius + rho {
+        return true;
+    }
+    match *light {
+        LightSource::Point(l) => {
+            let axis = centre - l;
+            let dist = axis.length();
+            if dist <= radius {
+                return true;
+            }
+            let to_q = q - l;
+            let dq = to_q.length();
+            if dq <= rho {
+                return true;
+            }
+            // The volume starts beyond the caster's near side.
+            if to_q.dot(axis / dist) < dist - radius - rho {
+                return false;
+            }
+            let half = (radius / dist).clamp(-1.0, 1.0).asin() + (rho / dq).clamp(-1.0, 1.0).asin();
+            let angle = (axis.dot(to_q) / (dist * dq)).clamp(-1.0, 1.0).acos();
+            angle <= half
+        }
+        LightSource::Directional(d) => {
+            let d = d.normalize_or(Vec3::NEG_Y);
+            let along = (q - centre).dot(d);
+            if along < -(radius + rho) {
+                return false;
+            }
+            let across = (q - centre - d * along).length();
+            across <= radius + rho
+        }
+    }
+}
+
+/// May the shadow volume of a caster inside the sphere (`centre`, `radius`) reach the inside of
+/// a homogeneous plane (`plane · (x, 1) ≥ 0`)? False only when both the sphere and every direction
+/// of extrusion lie outside: used to cull whole casters against the view frustum (Policarpo 2001,
+/// NOTES-001 §1.5: "cull the SV of each object's bounding volume against the view frustum").
+pub fn sphere_volume_reaches_plane(light: &LightSource, centre: Vec3, radius: f32, plane: Vec4) -> bool {
+    let n = plane.truncate();
+    let len = n.length();
+    if len == 0.0 {
+        return plane.w >= 0.0;
+    }
+    if plane.dot(centre.extend(1.0)) >= -radius * len {
+        return true;
+    }
+    match *light {
+        LightSource::Point(l) => n.dot(centre - l) + radius * len > 0.0,
+        LightSource::Directional(d) => n.dot(d) > 0.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -307,5 +608,134 @@ mod tests {
         };
         assert_eq!(sil(Vec3::new(0.0, 5.0, 0.0)), 4, "straight above: the top square");
         assert_eq!(sil(Vec3::new(5.0, 5.0, 5.0)), 6, "above a corner: a hexagon");
+    }
+
+    fn camera() -> VolumeCamera {
+        let view = crate::View::new("v", Vec3::new(0.3, 1.2, 4.0), Vec3::new(0.0, 0.5, 0.0), 0.05, 30.0)
+            .with_fov_degrees(60.0);
+        VolumeCamera { view_proj: view.projection(1.5) * view.view_matrix(), eye: view.position, near_ndc_depth: 1.0 }
+    }
+
+    #[test]
+    fn volume_matrix_keeps_the_image_and_maps_depth_to_near_and_infinity() {
+        let cam = camera();
+        let m = cam.volume_matrix();
+        for c in cam.near_corners() {
+            let a = cam.view_proj * c.extend(1.0);
+            let b = m * c.extend(1.0);
+            assert!((a.truncate().truncate() / a.w - b.truncate().truncate() / b.w).length() < 1e-4);
+            // Measured error 1e-7; margin for f32 round-off of the inverse.
+            assert!((b.z / b.w - 1.0).abs() < 1e-4, "near plane at depth 1: {}", b.z / b.w);
+        }
+        let inf = m * Vec4::new(-0.1, -0.2, -1.0, 0.0);
+        assert!((inf.z / inf.w - INFINITY_DEPTH).abs() < 1e-9);
+        let near_w = cam.near_w();
+        assert!((near_w - 0.05).abs() < 1e-4, "near w is the near distance: {near_w}");
+    }
+
+    #[test]
+    fn zp_plus_projects_through_the_near_plane_pixel_for_pixel() {
+        let cam = camera();
+        let bounds = crate::Aabb::new(Vec3::splat(-20.0), Vec3::splat(20.0));
+        let corners = cam.near_corners();
+        let mut rng = Rng::new(3);
+        let ndc = |m: Mat4, p: Vec3| {
+            let c = m * p.extend(1.0);
+            (Vec3::new(c.x, c.y, c.z) / c.w, c.w)
+        };
+        for light in [
+            LightSource::Point(Vec3::new(1.0, 3.0, -1.0)),
+            LightSource::Point(Vec3::new(0.5, 1.8, 5.0)),
+            LightSource::Directional(Vec3::new(0.3, -1.0, -0.4)),
+            LightSource::Directional(Vec3::new(0.1, -0.3, 0.9)),
+        ] {
+            let zp = cam.zp_plus(&light, &bounds).expect("light off the near plane");
+            for _ in 0..200 {
+                let (u, v) = (rng.next_f32(), rng.next_f32());
+                let q = corners[0] + (corners[1] - corners[0]) * u + (corners[3] - corners[0]) * v;
+                let (at_q, _) = ndc(cam.view_proj, q);
+                let before = match light {
+                    // Not too close to the light: there, f32 round-off of the point itself is magnified
+                    // by the projection onto the plane (as it is for the volume's sides).
+                    LightSource::Point(l) => l + (q - l) * rng.range(0.2, 0.99),
+                    LightSource::Directional(d) => q - d.normalize() * rng.range(0.01, 8.0),
+                };
+                let (p, w) = ndc(zp.matrix, before - zp.origin);
+                assert!(w > 0.0, "in front of the light");
+                // Measured below 1e-5 NDC (f32 round-off); 1e-4 NDC is 0.013 pixel at 256 pixels.
+                assert!((p.truncate() - at_q.truncate()).length() < 1e-4, "{light:?}: {p} vs {at_q}");
+                assert!((0.0..=1.0).contains(&p.z), "between the light and the plane: depth {}", p.z);
+                let beyond = match light {
+                    LightSource::Point(l) => l + (q - l) * 1.05,
+                    LightSource::Directional(d) => q + d.normalize() * 0.05,
+                };
+                let (p, _) = ndc(zp.matrix, beyond - zp.origin);
+                assert!(p.z < 0.0, "beyond the near plane is clipped: {}", p.z);
+            }
+        }
+        // The light in the near plane: the known failure, detected.
+        let in_plane = (corners[0] + corners[2]) / 2.0 + (corners[1] - corners[0]) * 3.0;
+        assert!(cam.zp_plus(&LightSource::Point(in_plane), &bounds).is_none());
+        let along = corners[1] - corners[0];
+        assert!(cam.zp_plus(&LightSource::Directional(along), &bounds).is_none());
+    }
+
+    #[test]
+    fn crossings_count_the_volumes_around_a_point() {
+        let torus = primitives::torus(1.0, 0.35, 24, 12);
+        let t = Affine3A::from_rotation_translation(glam::Quat::from_rotation_x(0.5), Vec3::new(0.0, 1.2, 0.0));
+        let topo = Topology::build(&torus);
+        let light = LightSource::Point(Vec3::new(0.3, 5.0, 0.2));
+        let vol = shadow_volume(&topo, &t, &light, false, true);
+        let mut rng = Rng::new(9);
+        let mut inside = 0;
+        for _ in 0..300 {
+            let p = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 1.0), rng.range(-2.0, 2.0));
+            let count = enclosure_count(&vol, p, Vec3::new(0.31, 0.52, -0.79).normalize(), 1e4);
+            assert_eq!(crossings(&topo, &t, &light, false, p) as i32, count, "at {p}");
+            inside += (count > 0) as usize;
+        }
+        assert!(inside > 30, "points inside volumes were tested: {inside}");
+    }
+
+    #[test]
+    fn skip_test_is_conservative() {
+        let cube = primitives::cuboid(Vec3::ONE);
+        let topo = Topology::build(&cube);
+        let t = Affine3A::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let (centre, radius) = (Vec3::new(0.0, 1.0, 0.0), 3f32.sqrt() * 0.5);
+        let mut rng = Rng::new(5);
+        let (mut touched, mut skipped) = (0, 0);
+        for light in [LightSource::Point(Vec3::new(0.4, 4.0, 0.2)), LightSource::Directional(Vec3::new(0.3, -1.0, 0.1))] {
+            for _ in 0..300 {
+                let q = Vec3::new(rng.range(-4.0, 4.0), rng.range(-3.0, 3.0), rng.range(-4.0, 4.0));
+                let rho = rng.range(0.05, 0.6);
+                let hit = (0..40).any(|_| {
+                    let o = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                    crossings(&topo, &t, &light, false, q + o.clamp_length_max(1.0) * rho) > 0
+                });
+                let test = sphere_volume_touches(&light, centre, radius, q, rho);
+                assert!(!hit || test, "{light:?}: a sphere at {q} ({rho}) touches the volume but the test skips it");
+                touched += hit as usize;
+                skipped += (!test) as usize;
+            }
+        }
+        assert!(touched > 20 && skipped > 100, "both outcomes occur: {touched} touched, {skipped} skipped");
+    }
+
+    #[test]
+    fn sphere_rect_bounds_the_sphere() {
+        let cam = camera();
+        let mut rng = Rng::new(2);
+        let centre = Vec3::new(0.5, 0.3, -1.0);
+        let SphereRect::Rect(r) = cam.sphere_rect(centre, 0.4) else { panic!("a sphere in view") };
+        for _ in 0..200 {
+            let p = centre + Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).clamp_length_max(1.0) * 0.4;
+            let c = cam.view_proj * p.extend(1.0);
+            let (x, y) = (c.x / c.w, c.y / c.w);
+            assert!(x >= r[0] - 1e-5 && x <= r[2] + 1e-5 && y >= r[1] - 1e-5 && y <= r[3] + 1e-5 || x.abs() > 1.0 || y.abs() > 1.0);
+        }
+        assert_eq!(cam.sphere_rect(cam.eye, 0.5), SphereRect::Full);
+        assert_eq!(cam.sphere_rect(cam.eye - cam.forward() * 10.0, 0.5), SphereRect::Outside);
     }
 }

@@ -66,11 +66,17 @@ impl View {
     /// The primary ray through the centre of pixel `(x, y)` of a `width × height` image: its origin
     /// (the camera position) and unit direction.
     pub fn pixel_ray(&self, x: u32, y: u32, width: u32, height: u32) -> (Vec3, Vec3) {
+        self.image_ray(x as f32 + 0.5, y as f32 + 0.5, width, height)
+    }
+
+    /// The primary ray through the image point `(x, y)`, in pixels from the top-left corner (pixel
+    /// centres at half-integers).
+    pub fn image_ray(&self, x: f32, y: f32, width: u32, height: u32) -> (Vec3, Vec3) {
         let (r, u, f) = self.basis();
         let t = (0.5 * self.fov_y).tan();
         let aspect = width as f32 / height.max(1) as f32;
-        let sx = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * t * aspect;
-        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * t;
+        let sx = (2.0 * x / width as f32 - 1.0) * t * aspect;
+        let sy = (1.0 - 2.0 * y / height as f32) * t;
         (self.position, (f + sx * r + sy * u).normalize())
     }
 

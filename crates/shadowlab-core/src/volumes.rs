@@ -178,7 +178,6 @@ pub fn enclosure_count(volume: &ShadowVolume, p: Vec3, dir: Vec3, far: f32) -> i
     count
 }
 
-
 impl LightSource {
     /// The source of a light's centre (area lights: their centre; the sun: its direction).
     pub fn of(light: &crate::Light) -> Self {
@@ -270,9 +269,8 @@ impl VolumeCamera {
     /// The near-plane rectangle's corners: NDC (−1, −1), (1, −1), (1, 1), (−1, 1).
     pub fn near_corners(&self) -> [Vec3; 4] {
         let inv = self.view_proj.as_dmat4().inverse();
-        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, y)| {
-            inv.project_point3(glam::DVec3::new(x, y, f64::from(self.near_ndc_depth))).as_vec3()
-        })
+        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .map(|(x, y)| inv.project_point3(glam::DVec3::new(x, y, f64::from(self.near_ndc_depth))).as_vec3())
     }
 
     /// Unit normal of the near plane, pointing away from the eye.
@@ -383,13 +381,10 @@ impl VolumeCamera {
                 // Relative to the plane's centre, x' = x − c: x lies t = −f·x'/(f·d) upstream of
                 // the plane along the light, and is seen on it at q = x + t·d.
                 let t = (-f / fd).extend(0.0);
-                let far = bounds
-                    .corners()
-                    .iter()
-                    .map(|p| t.dot((p.as_dvec3() - centre).extend(1.0)))
-                    .fold(0.0f64, f64::max)
-                    * 1.01
-                    + 1e-3;
+                let far =
+                    bounds.corners().iter().map(|p| t.dot((p.as_dvec3() - centre).extend(1.0))).fold(0.0f64, f64::max)
+                        * 1.01
+                        + 1e-3;
                 let row = |r: DVec4| r.truncate().extend(r.dot(centre.extend(1.0))) + r.truncate().dot(d) * t;
                 // Depth t/far: 0 on the near plane, clipped beyond it.
                 let z = t / far;
@@ -458,6 +453,37 @@ pub fn sphere_volume_touches(light: &LightSource, centre: Vec3, radius: f32, q: 
             across <= radius + rho
         }
     }
+}
+
+/// A tighter skip test for casters whose bounding sphere is a poor fit (walls, floors): may the
+/// shadow volume of a caster inside the box `bounds` touch the sphere (`q`, `rho`)? A point x of
+/// the sphere is in the volume only if its segment to the light crosses the box; every point of
+/// that segment lies within `rho` of the segment from `q` to the light, so the test is whether
+/// that segment meets the box grown by `rho`. Conservative, like [`sphere_volume_touches`].
+pub fn box_volume_touches(light: &LightSource, bounds: &crate::Aabb, q: Vec3, rho: f32) -> bool {
+    let (min, max) = (bounds.min - Vec3::splat(rho), bounds.max + Vec3::splat(rho));
+    let (dir, len) = match *light {
+        LightSource::Point(l) => (l - q, 1.0),
+        LightSource::Directional(d) => (-d.normalize_or(Vec3::NEG_Y), f32::INFINITY),
+    };
+    // Slab test of q + t·dir, t ∈ [0, len].
+    let (mut t0, mut t1) = (0.0f32, len);
+    for axis in 0..3 {
+        let (o, d) = (q[axis], dir[axis]);
+        if d.abs() < 1e-12 {
+            if o < min[axis] || o > max[axis] {
+                return false;
+            }
+            continue;
+        }
+        let (a, b) = ((min[axis] - o) / d, (max[axis] - o) / d);
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
 }
 
 /// May the shadow volume of a caster inside the sphere (`centre`, `radius`) reach the inside of
@@ -705,8 +731,9 @@ mod tests {
         let t = Affine3A::from_translation(Vec3::new(0.0, 1.0, 0.0));
         let (centre, radius) = (Vec3::new(0.0, 1.0, 0.0), 3f32.sqrt() * 0.5);
         let mut rng = Rng::new(5);
-        let (mut touched, mut skipped) = (0, 0);
-        for light in [LightSource::Point(Vec3::new(0.4, 4.0, 0.2)), LightSource::Directional(Vec3::new(0.3, -1.0, 0.1))] {
+        let (mut touched, mut skipped, mut box_skipped) = (0, 0, 0);
+        for light in [LightSource::Point(Vec3::new(0.4, 4.0, 0.2)), LightSource::Directional(Vec3::new(0.3, -1.0, 0.1))]
+        {
             for _ in 0..300 {
                 let q = Vec3::new(rng.range(-4.0, 4.0), rng.range(-3.0, 3.0), rng.range(-4.0, 4.0));
                 let rho = rng.range(0.05, 0.6);
@@ -716,11 +743,20 @@ mod tests {
                 });
                 let test = sphere_volume_touches(&light, centre, radius, q, rho);
                 assert!(!hit || test, "{light:?}: a sphere at {q} ({rho}) touches the volume but the test skips it");
+                let boxed = box_volume_touches(
+                    &light,
+                    &crate::Aabb::new(Vec3::new(-0.5, 0.5, -0.5), Vec3::new(0.5, 1.5, 0.5)),
+                    q,
+                    rho,
+                );
+                assert!(!hit || boxed, "{light:?}: the box test skips a sphere at {q} ({rho}) that touches the volume");
+                box_skipped += (!boxed) as usize;
                 touched += hit as usize;
                 skipped += (!test) as usize;
             }
         }
         assert!(touched > 20 && skipped > 100, "both outcomes occur: {touched} touched, {skipped} skipped");
+        assert!(box_skipped > 100, "the box test skips too: {box_skipped}");
     }
 
     #[test]
@@ -730,10 +766,16 @@ mod tests {
         let centre = Vec3::new(0.5, 0.3, -1.0);
         let SphereRect::Rect(r) = cam.sphere_rect(centre, 0.4) else { panic!("a sphere in view") };
         for _ in 0..200 {
-            let p = centre + Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).clamp_length_max(1.0) * 0.4;
+            let p = centre
+                + Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).clamp_length_max(1.0)
+                    * 0.4;
             let c = cam.view_proj * p.extend(1.0);
             let (x, y) = (c.x / c.w, c.y / c.w);
-            assert!(x >= r[0] - 1e-5 && x <= r[2] + 1e-5 && y >= r[1] - 1e-5 && y <= r[3] + 1e-5 || x.abs() > 1.0 || y.abs() > 1.0);
+            assert!(
+                x >= r[0] - 1e-5 && x <= r[2] + 1e-5 && y >= r[1] - 1e-5 && y <= r[3] + 1e-5
+                    || x.abs() > 1.0
+                    || y.abs() > 1.0
+            );
         }
         assert_eq!(cam.sphere_rect(cam.eye, 0.5), SphereRect::Full);
         assert_eq!(cam.sphere_rect(cam.eye - cam.forward() * 10.0, 0.5), SphereRect::Outside);

@@ -228,3 +228,70 @@ pub fn near_hard_boundary(
         })
         .collect()
 }
+
+/// Marks the pixels whose centre lies within half a pixel of a hard shadow boundary in the image:
+/// the tolerance of an exact technique (shadow volumes), which may decide such a pixel either way
+/// by round-off. Two kinds of boundary are looked for at 8 points on the circle of radius 0.5 pixel
+/// around the pixel centre:
+///
+/// - **cast shadows**: the reference, traced at each point's camera ray where it meets the pixel's
+///   tangent plane, disagrees with the centre;
+/// - **the geometric terminator**: the triangle that each point's camera ray hits in `all` (a BVH of
+///   everything drawn) faces the light at some points and not at others. The reference offsets its
+///   rays along the *shading* normal, so on curved meshes it places the terminator where the
+///   interpolated normal turns, while geometry-exact techniques place it at the mesh's silhouette
+///   edge; within half a pixel of that edge both are right.
+///
+/// Grazing pixels (the tangent plane nearly along the ray) are marked too. The light's centre is
+/// used, whatever its emitter size.
+pub fn near_boundary_in_image(
+    casters: &SceneBvh,
+    all: &SceneBvh,
+    surface: &SurfaceBuffer,
+    light: &Light,
+    view: &shadowlab_core::View,
+) -> Vec<bool> {
+    let eps = EPSILON_SCALE * casters.scene_diagonal.max(1e-6);
+    let mut centre = light.clone();
+    centre.scale_emitter(0.0);
+    let visible = |p: Vec3, n: Vec3| sample_visible(casters, &centre, p + n * eps, n, Vec2::splat(0.5), eps);
+    // Whether the triangle seen along a camera ray faces the light (None: background).
+    let faces_light = |o: Vec3, dir: Vec3| {
+        let hit = all.closest(&PreparedRay::new(o, dir, 0.0, f32::INFINITY), |_, _| true)?;
+        let t = &all.triangles()[hit.index as usize];
+        let mut n = Vec3::from((t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]));
+        if n.dot(dir) > 0.0 {
+            n = -n;
+        }
+        let (l, _) = centre.to_light(o + dir * hit.t);
+        Some(n.dot(l) > 0.0)
+    };
+    let (w, h) = (surface.width, surface.height);
+    let d = 0.5 * std::f32::consts::FRAC_1_SQRT_2;
+    let offsets = [(0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5), (d, d), (-d, d), (d, -d), (-d, -d)];
+    (0..surface.len())
+        .into_par_iter()
+        .map(|i| {
+            let (p, n) = (surface.positions[i], surface.normals[i]);
+            if !surface.covered[i] || !light.is_relevant(p, n) {
+                return false;
+            }
+            let here = visible(p, n);
+            let (x, y) = ((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+            let (o, dir) = view.image_ray(x, y, w, h);
+            let facing = faces_light(o, dir);
+            offsets.iter().any(|&(dx, dy)| {
+                let (o, dir) = view.image_ray(x + dx, y + dy, w, h);
+                let denom = n.dot(dir);
+                if denom.abs() < 1e-4 {
+                    return true;
+                }
+                let q = o + dir * (n.dot(p - o) / denom);
+                if visible(q, n) != here {
+                    return true;
+                }
+                matches!((facing, faces_light(o, dir)), (Some(a), Some(b)) if a != b)
+            })
+        })
+        .collect()
+}

@@ -6,8 +6,9 @@
 //! rest of the renderer, which is what makes techniques comparable, composable per light and
 //! replaceable.
 
+use std::any::Any;
 use std::collections::HashMap;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use shadowlab_core::params::{ParamDef, ParamError, ParamSet, parse_spec, split_assignment};
 use shadowlab_core::{Light, LightId, Scene};
@@ -203,6 +204,7 @@ pub struct Shared {
     render_pipelines: Mutex<HashMap<String, wgpu::RenderPipeline>>,
     compute_pipelines: Mutex<HashMap<String, wgpu::ComputePipeline>>,
     layouts: Mutex<HashMap<String, wgpu::BindGroupLayout>>,
+    resources: Mutex<HashMap<String, Arc<dyn Any + Send + Sync>>>,
 }
 
 impl Shared {
@@ -267,6 +269,7 @@ impl Shared {
             render_pipelines: Mutex::default(),
             compute_pipelines: Mutex::default(),
             layouts: Mutex::default(),
+            resources: Mutex::default(),
         }
     }
 
@@ -306,6 +309,18 @@ impl Shared {
         cache.entry(key.to_owned()).or_insert_with(make).clone()
     }
 
+    /// A scene resource shared by every light's technique (GPU copies of mesh topology, say),
+    /// built by `make` the first time `key` is asked for.
+    pub fn resource<T: Any + Send + Sync>(&self, key: &str, make: impl FnOnce() -> T) -> Arc<T> {
+        let mut cache = self.resources.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(found) = cache.get(key).and_then(|r| Arc::clone(r).downcast::<T>().ok()) {
+            return found;
+        }
+        let made = Arc::new(make());
+        cache.insert(key.to_owned(), Arc::clone(&made) as Arc<dyn Any + Send + Sync>);
+        made
+    }
+
     /// A compute pipeline for a resolve shader: group 0 is the resolve layout, `extra` the
     /// technique's own groups.
     pub fn resolve_pipeline(
@@ -316,10 +331,26 @@ impl Shared {
         extra: &[&wgpu::BindGroupLayout],
         constants: &[(&str, f64)],
     ) -> wgpu::ComputePipeline {
+        self.resolve_pipeline_with(key, source, entry, extra, constants, &[])
+    }
+
+    /// [`Shared::resolve_pipeline`] with `// #ifdef` names of its own (`key` must tell them apart).
+    pub fn resolve_pipeline_with(
+        &self,
+        key: &str,
+        source: &str,
+        entry: &str,
+        extra: &[&wgpu::BindGroupLayout],
+        constants: &[(&str, f64)],
+        defines: &[&str],
+    ) -> wgpu::ComputePipeline {
         self.compute_pipeline(key, || {
             let device = &self.gpu.device;
-            let defines: &[&str] = if self.hardware_compare { &["HARDWARE_COMPARE"] } else { &[] };
-            let module = crate::shader::module_with(device, key, source, defines);
+            let mut all: Vec<&str> = defines.to_vec();
+            if self.hardware_compare {
+                all.push("HARDWARE_COMPARE");
+            }
+            let module = crate::shader::module_with(device, key, source, &all);
             let mut layouts: Vec<Option<&wgpu::BindGroupLayout>> = vec![Some(&self.resolve_layout)];
             layouts.extend(extra.iter().map(|l| Some(*l)));
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

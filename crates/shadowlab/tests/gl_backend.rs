@@ -24,3 +24,25 @@ fn hard_shadows_render_on_gl() {
     let image = run.renderer.read_image().unwrap();
     assert!(image.iter().any(|&b| b != image[0]), "the image is not blank");
 }
+
+#[test]
+fn shadow_volumes_render_on_gl() {
+    let gpu = Gpu::new(BackendChoice::Gl).expect("no GL adapter: install Mesa's GL drivers (libgl1-mesa-dri, libegl1)");
+    let mut scene = load_scene("room").unwrap().scene;
+    scene.scale_emitters(0.0);
+    // Under the table: the near plane cuts volumes, so ZP+ (or z-fail) does the work.
+    let view = scene.view("under_table").unwrap().clone();
+    let light = scene.find_light("ceiling lamp").unwrap();
+    for spec in ["volumes", "volumes:mode=zfail"] {
+        let run = common::render(&gpu, &scene, &view, 64, spec, &[light]);
+        let v = run.visibility(light);
+        let r = common::reference(&scene, &run.surface, light, 1);
+        let wrong = v.iter().zip(&r).filter(|(a, b)| !b.is_nan() && (*a - *b).abs() > 0.5).count();
+        let relevant = r.iter().filter(|b| !b.is_nan()).count();
+        // Measured 0 wrong of 3609 relevant pixels; 1% allows the boundary pixels that the
+        // Vulkan tests except by measuring them.
+        assert!(v.contains(&0.0) && v.contains(&1.0), "{spec}: shadows and light");
+        println!("{spec} on GL: {wrong} of {relevant} relevant pixels wrong");
+        assert!((wrong as f64) < 0.01 * relevant as f64, "{spec}: {wrong} of {relevant}");
+    }
+}

@@ -55,6 +55,16 @@ pub fn build(_options: &ParamSet) -> Scene {
         .with_fov_degrees(45.0),
         View::new("window", Vec3::new(-1.9, 1.5, -1.4), Vec3::new(1.2, 0.3, 0.5), 0.05, 20.0).with_fov_degrees(65.0),
         View::new("sofa", Vec3::new(0.9, 1.35, -0.9), Vec3::new(-2.0, 0.5, 0.9), 0.05, 20.0).with_fov_degrees(62.0),
+        // Under the table, in the ceiling lamp's shadow of the table top: the near plane cuts
+        // shadow volumes (z-pass fails here; Toromanoff 2005 Fig. 35).
+        View::new(
+            "under_table",
+            TABLE_CENTRE + Vec3::new(-0.1, 0.4, 0.1),
+            TABLE_CENTRE + Vec3::new(2.0, 0.25, 1.1),
+            0.05,
+            20.0,
+        )
+        .with_fov_degrees(70.0),
     ];
     scene
 }

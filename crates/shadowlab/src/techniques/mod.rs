@@ -5,6 +5,7 @@ mod hard;
 mod none;
 mod pcf;
 mod sampled;
+mod volumes;
 
 use crate::technique::TechniqueInfo;
 
@@ -13,4 +14,5 @@ pub use cascaded::{cascade_settings, selection_layout};
 /// Every light type.
 pub(crate) const ALL_LIGHTS: &[&str] = &["point", "spot", "directional", "rect"];
 
-pub(crate) static REGISTRY: &[TechniqueInfo] = &[none::INFO, hard::INFO, pcf::INFO, sampled::INFO, cascaded::INFO];
+pub(crate) static REGISTRY: &[TechniqueInfo] =
+    &[none::INFO, hard::INFO, pcf::INFO, sampled::INFO, cascaded::INFO, volumes::INFO];

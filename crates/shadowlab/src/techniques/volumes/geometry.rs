@@ -1,0 +1,190 @@
+//! What shadow volumes need of the scene on the GPU: every mesh's welded topology (faces, edges and
+//! the faces around each edge, from [`shadowlab_core::Topology`]) and the shadow casters. The
+//! topology is shared by every light (a [`Shared::resource`]); casters are listed per frame.
+
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Affine3A, Mat4, Vec3, Vec4};
+use shadowlab_core::{Scene, Topology};
+
+use crate::technique::{Shared, storage_entry};
+
+/// One mesh's place in the shared topology buffers.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct MeshRanges {
+    pub first_face: u32,
+    pub faces: u32,
+    pub first_edge: u32,
+    pub edges: u32,
+}
+
+/// The welded topology of every mesh of the scene, on the GPU and on the CPU (the CPU copy counts
+/// the volumes around the eye for the robust depth pass).
+pub(super) struct VolumeTopology {
+    pub meshes: Vec<MeshRanges>,
+    pub topologies: Vec<Topology>,
+    pub group: wgpu::BindGroup,
+    pub bytes: u64,
+}
+
+pub(super) fn topology_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("volumes topology", || {
+        let c = wgpu::ShaderStages::COMPUTE;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("volumes topology"),
+            entries: &[
+                storage_entry(0, c, true),
+                storage_entry(1, c, true),
+                storage_entry(2, c, true),
+                storage_entry(3, c, true),
+            ],
+        })
+    })
+}
+
+/// A storage buffer of at least 16 bytes (wgpu does not bind empty buffers).
+fn buffer(device: &wgpu::Device, label: &str, mut bytes: Vec<u8>) -> wgpu::Buffer {
+    bytes.resize(bytes.len().max(16), 0);
+    crate::util::storage_buffer(device, label, &bytes)
+}
+
+impl VolumeTopology {
+    /// The scene's topology, built once per [`Shared`] and shared by every light.
+    pub fn shared(shared: &Shared, scene: &Scene) -> Arc<Self> {
+        shared.resource("volumes topology", || Self::new(shared, scene))
+    }
+
+    fn new(shared: &Shared, scene: &Scene) -> Self {
+        let mut positions: Vec<Vec4> = Vec::new();
+        let mut triangles: Vec<[u32; 4]> = Vec::new();
+        let mut edges: Vec<[u32; 4]> = Vec::new();
+        let mut uses: Vec<u32> = Vec::new();
+        let mut meshes = Vec::with_capacity(scene.meshes.len());
+        let mut topologies = Vec::with_capacity(scene.meshes.len());
+        for mesh in &scene.meshes {
+            let topo = Topology::build(mesh);
+            let base = positions.len() as u32;
+            meshes.push(MeshRanges {
+                first_face: triangles.len() as u32,
+                faces: topo.triangles.len() as u32,
+                first_edge: edges.len() as u32,
+                edges: topo.edges.len() as u32,
+            });
+            positions.extend(topo.positions.iter().map(|p| p.extend(1.0)));
+            triangles.extend(
+                topo.triangles
+                    .iter()
+                    .zip(&topo.degenerate)
+                    .map(|(t, &d)| [t[0] + base, t[1] + base, t[2] + base, u32::from(d)]),
+            );
+            for (e, edge) in topo.edges.iter().enumerate() {
+                let list = topo.edge_uses(e);
+                edges.push([edge.v[0] + base, edge.v[1] + base, uses.len() as u32, list.len() as u32]);
+                uses.extend(list.iter().map(|u| u.face | if u.forward { 1 << 31 } else { 0 }));
+            }
+            topologies.push(topo);
+        }
+        let device = &shared.gpu.device;
+        let buffers = [
+            buffer(device, "volume positions", bytemuck::cast_slice(&positions).to_vec()),
+            buffer(device, "volume faces", bytemuck::cast_slice(&triangles).to_vec()),
+            buffer(device, "volume edges", bytemuck::cast_slice(&edges).to_vec()),
+            buffer(device, "volume edge uses", bytemuck::cast_slice(&uses).to_vec()),
+        ];
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("volumes topology"),
+            layout: &topology_layout(shared),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: buffers[0].as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: buffers[1].as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: buffers[2].as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: buffers[3].as_entire_binding() },
+            ],
+        });
+        let bytes = buffers.iter().map(wgpu::Buffer::size).sum();
+        Self { meshes, topologies, group, bytes }
+    }
+}
+
+/// A shadow caster: an instance with `casts_shadows`.
+#[derive(Debug, Clone)]
+pub(super) struct Caster {
+    pub mesh: usize,
+    pub transform: Affine3A,
+    /// Open meshes and double-sided materials occlude with both faces.
+    pub two_sided: bool,
+    pub mirrored: bool,
+    /// A world-space bounding sphere and box.
+    pub centre: Vec3,
+    pub radius: f32,
+    pub bounds: shadowlab_core::Aabb,
+}
+
+impl Caster {
+    pub fn all(scene: &Scene, topology: &VolumeTopology) -> Vec<Caster> {
+        scene
+            .instances
+            .iter()
+            .filter(|i| i.casts_shadows)
+            .filter(|i| topology.meshes[i.mesh.index()].faces > 0)
+            .map(|i| {
+                let mesh = scene.mesh(i.mesh);
+                let closed = topology.topologies[i.mesh.index()].report().is_closed();
+                let corners = shadowlab_core::Aabb::from_points(mesh.positions.iter().copied())
+                    .corners()
+                    .map(|c| i.transform.transform_point3(c));
+                let bounds = shadowlab_core::Aabb::from_points(corners);
+                let centre = bounds.center();
+                let radius = corners.iter().map(|c| c.distance(centre)).fold(0.0, f32::max) * 1.0001 + 1e-6;
+                Caster {
+                    mesh: i.mesh.index(),
+                    transform: i.transform,
+                    two_sided: !closed || scene.material(i.material).double_sided,
+                    mirrored: i.transform.matrix3.determinant() < 0.0,
+                    centre,
+                    radius,
+                    bounds,
+                }
+            })
+            .collect()
+    }
+}
+
+pub(super) const CASTER_TWO_SIDED: u32 = 1;
+pub(super) const CASTER_MIRRORED: u32 = 2;
+pub(super) const CASTER_ZP_PLUS: u32 = 4;
+
+/// `struct Caster` of `common.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(super) struct CasterRecord {
+    pub model: Mat4,
+    pub ranges: [u32; 4],
+    pub work: [u32; 2],
+    pub flags: u32,
+    pub pad: u32,
+}
+
+impl CasterRecord {
+    /// `first_face` and `first_edge` number this caster's work items within its pass.
+    pub fn new(c: &Caster, ranges: &MeshRanges, first_face: u32, first_edge: u32, zp_plus: bool) -> Self {
+        let mut flags = 0;
+        if c.two_sided {
+            flags |= CASTER_TWO_SIDED;
+        }
+        if c.mirrored {
+            flags |= CASTER_MIRRORED;
+        }
+        if zp_plus {
+            flags |= CASTER_ZP_PLUS;
+        }
+        Self {
+            model: Mat4::from(c.transform),
+            ranges: [ranges.first_face, ranges.faces, ranges.first_edge, ranges.edges],
+            work: [first_face, first_edge],
+            flags,
+            pad: 0,
+        }
+    }
+}

@@ -1,0 +1,206 @@
+//! The CPU half of a shadow-volume frame: per light sample, which counting method to use, the
+//! scissor rectangle, the casters that can matter, and the stencil start value. Everything here is
+//! decided from bounding spheres and the camera, before any GPU work is recorded.
+
+use glam::Vec4;
+use shadowlab_core::Aabb;
+use shadowlab_core::volumes::{
+    LightSource, SphereRect, VolumeCamera, ZpPlus, box_volume_touches, crossings, sphere_volume_reaches_plane,
+    sphere_volume_touches,
+};
+
+use super::geometry::{Caster, CasterRecord, VolumeTopology};
+
+/// The `mode` parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Mode {
+    Auto,
+    ZPass,
+    ZFail,
+    ZpPlus,
+}
+
+impl Mode {
+    pub fn parse(text: &str) -> Self {
+        match text {
+            "zpass" => Self::ZPass,
+            "zfail" => Self::ZFail,
+            "zpplus" => Self::ZpPlus,
+            _ => Self::Auto,
+        }
+    }
+}
+
+/// How one sample's volumes are counted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Method {
+    /// Nothing can shadow a visible pixel: the stencil stays at zero.
+    Skip,
+    /// Counting in front of the surface from the near plane (Heidmann 1991).
+    ZPass,
+    /// Counting behind the surface, with caps (Bilodeau 1999, Carmack 2000).
+    ZFail,
+    /// Z-pass started from the light's view of the near plane (Hornus et al. 2005).
+    ZpPlus(ZpPlus),
+}
+
+impl Method {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Skip => "skip",
+            Self::ZPass => "zpass",
+            Self::ZFail => "zfail",
+            Self::ZpPlus(_) => "zpplus",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Settings {
+    pub mode: Mode,
+    /// Parity counting with the invert stencil operation.
+    pub parity: bool,
+    pub scissor: bool,
+    pub cull: bool,
+}
+
+/// One light sample's frame.
+#[derive(Debug, Clone)]
+pub(super) struct SamplePlan {
+    pub source: LightSource,
+    pub method: Method,
+    /// ZP+ was asked for, but the light lies in the near plane: z-fail instead.
+    pub fallback: bool,
+    /// Depth clamping instead of near clipping, the stencil starting at the eye's count
+    /// (Hasselgren 2003 §3.3.2's robust depth pass).
+    pub robust: bool,
+    pub stencil_start: u32,
+    /// Pixels (x, y, width, height); `None`: the whole surface.
+    pub scissor: Option<[u32; 4]>,
+    pub planes: [Vec4; 5],
+    pub records: Vec<CasterRecord>,
+    pub faces: u32,
+    pub edges: u32,
+}
+
+/// Everything a plan needs to know about the frame.
+pub(super) struct FrameView<'a> {
+    pub camera: &'a VolumeCamera,
+    pub width: u32,
+    pub height: u32,
+    pub range: Option<f32>,
+    pub casters: &'a [Caster],
+    pub topology: &'a VolumeTopology,
+    /// Bounds of every caster (the depth range of the ZP+ projection for the sun).
+    pub bounds: &'a Aabb,
+}
+
+pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSource) -> SamplePlan {
+    let mut plan = SamplePlan {
+        source,
+        method: Method::Skip,
+        fallback: false,
+        robust: false,
+        stencil_start: 0,
+        scissor: None,
+        planes: frame.camera.planes([-1.0, -1.0, 1.0, 1.0]),
+        records: Vec::new(),
+        faces: 0,
+        edges: 0,
+    };
+    // Hasselgren 2003 §3.3.1.1: the light's screen rectangle bounds everything it lights.
+    let light_sphere = match (source, frame.range) {
+        (LightSource::Point(p), Some(r)) => Some((p, r)),
+        _ => None,
+    };
+    if settings.scissor
+        && let Some((p, r)) = light_sphere
+    {
+        match frame.camera.sphere_rect(p, r) {
+            SphereRect::Full => {}
+            SphereRect::Outside => return plan,
+            SphereRect::Rect(ndc) => {
+                let Some(rect) = pixel_rect(ndc, frame.width, frame.height) else { return plan };
+                plan.scissor = Some(rect);
+                plan.planes = frame.camera.planes(ndc);
+            }
+        }
+    }
+    let active: Vec<&Caster> = frame
+        .casters
+        .iter()
+        .filter(|c| {
+            !settings.cull
+                || (light_sphere.is_none_or(|(p, r)| p.distance(c.centre) - c.radius <= r)
+                    && plan.planes.iter().all(|&pl| sphere_volume_reaches_plane(&source, c.centre, c.radius, pl)))
+        })
+        .collect();
+    if active.is_empty() {
+        return plan;
+    }
+    let (near_centre, near_radius) = frame.camera.near_pyramid_sphere();
+    let touches = |c: &Caster, q, rho| {
+        sphere_volume_touches(&source, c.centre, c.radius, q, rho) && box_volume_touches(&source, &c.bounds, q, rho)
+    };
+    let touching: Vec<bool> = active.iter().map(|c| touches(c, near_centre, near_radius)).collect();
+    let zp_plus = |plan: &mut SamplePlan| match frame.camera.zp_plus(&source, frame.bounds) {
+        Some(zp) => Method::ZpPlus(zp),
+        None => {
+            plan.fallback = true;
+            Method::ZFail
+        }
+    };
+    plan.method = match settings.mode {
+        Mode::ZPass => Method::ZPass,
+        Mode::ZFail => Method::ZFail,
+        Mode::ZpPlus => zp_plus(&mut plan),
+        // Toromanoff 2005 §VI.2.a: z-pass fails only where the near pyramid meets a volume.
+        Mode::Auto if !touching.contains(&true) => Method::ZPass,
+        Mode::Auto => zp_plus(&mut plan),
+    };
+    // Only the listed casters start the count in ZP+: the others' volumes miss the near plane.
+    let listed = |i: usize| match settings.mode {
+        Mode::Auto => touching[i],
+        _ => true,
+    };
+    if settings.parity && plan.method == Method::ZPass {
+        plan.robust = true;
+        let eye = frame.camera.eye;
+        let inside: u32 = active
+            .iter()
+            .filter(|c| touches(c, eye, 0.0))
+            .map(|c| crossings(&frame.topology.topologies[c.mesh], &c.transform, &source, c.two_sided, eye))
+            .sum();
+        plan.stencil_start = inside & 1;
+    }
+    for (i, c) in active.iter().enumerate() {
+        let ranges = &frame.topology.meshes[c.mesh];
+        plan.records.push(CasterRecord::new(c, ranges, plan.faces, plan.edges, listed(i)));
+        plan.faces += ranges.faces;
+        plan.edges += ranges.edges;
+    }
+    plan
+}
+
+/// NDC [x0, y0, x1, y1] → pixels (x, y, width, height), rounded outwards; `None` when empty.
+fn pixel_rect(ndc: [f32; 4], width: u32, height: u32) -> Option<[u32; 4]> {
+    let (w, h) = (width as f32, height as f32);
+    let x0 = ((ndc[0] + 1.0) * 0.5 * w).floor().clamp(0.0, w) as u32;
+    let x1 = ((ndc[2] + 1.0) * 0.5 * w).ceil().clamp(0.0, w) as u32;
+    let y0 = ((1.0 - ndc[3]) * 0.5 * h).floor().clamp(0.0, h) as u32;
+    let y1 = ((1.0 - ndc[1]) * 0.5 * h).ceil().clamp(0.0, h) as u32;
+    (x1 > x0 && y1 > y0).then_some([x0, y0, x1 - x0, y1 - y0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pixel_rects_round_outwards_and_clamp() {
+        assert_eq!(pixel_rect([-1.0, -1.0, 1.0, 1.0], 100, 50), Some([0, 0, 100, 50]));
+        assert_eq!(pixel_rect([-0.01, -0.01, 0.01, 0.01], 100, 100), Some([49, 49, 2, 2]));
+        assert_eq!(pixel_rect([-3.0, 0.5, 3.0, 0.9], 100, 100), Some([0, 5, 100, 20]));
+        assert_eq!(pixel_rect([1.5, 0.2, 2.0, 0.3], 100, 100), None, "off screen");
+    }
+}

@@ -282,8 +282,10 @@ fn scissor_and_culling_change_the_cost_not_the_image() {
     let fill = |run: &Run| scene.lights.iter().map(|l| stat(run, &l.name, "fill_fragments")).sum::<f64>();
     let tris = |run: &Run| run.renderer.shadows.stats().triangles;
     println!("fill: {} → {}; triangles {} → {}", fill(&plain), fill(&fast), tris(&plain), tris(&fast));
+    // Measured 6362 → 5342 triangles and 1.064 M → 0.996 M fragments (lamp 3's range covers 89%
+    // of the screen).
     assert!(tris(&fast) < tris(&plain), "culling drops volume polygons");
-    assert!(fill(&fast) <= fill(&plain), "and never adds fill");
+    assert!(fill(&fast) < fill(&plain), "the scissor saves fill");
 }
 
 #[test]

@@ -49,7 +49,21 @@ fn main() {
         Command::Analyze(a) => commands::analyze::run(&cli.global, a),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", chain_text(&e));
         std::process::exit(1);
     }
+}
+
+/// The error and its causes, each cause left out when the message before already says it (our
+/// library errors quote their source).
+fn chain_text(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text
 }

@@ -28,6 +28,8 @@ fn fails_with(args: &[&str], message: &str) {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{args:?} succeeded");
     assert!(stderr.contains(message), "{args:?}: expected '{message}' in: {stderr}");
+    // Said once: a cause already quoted by its error is not repeated.
+    assert_eq!(stderr.matches(message).count(), 1, "{args:?}: repeated message in: {stderr}");
 }
 
 fn json(path: &Path) -> serde_json::Value {
@@ -260,11 +262,12 @@ fn bad_input_gives_clear_errors() {
     fails_with(&["compare", "--set", "map_size=0", "--out", o], "out of range");
     fails_with(&["compare", "--set", "colour=red", "--out", o], "unknown parameter 'colour'");
     fails_with(&["compare", "--technique", "pcf:taps=many", "--out", o], "expected an integer");
+    fails_with(&["render", "--technique", "volumes:samples=0", "--out", "x.png"], "out of range 1..=1024");
     fails_with(&["render", "--scene", "no/such/scene.obj", "--out", "x.png"], "no such file");
     fails_with(&["render", "--view", "attic", "--out", "x.png"], "no view 'attic'");
     fails_with(&["render", "--lights", "moon", "--out", "x.png"], "no light 'moon'");
-    fails_with(&["render", "--size", "0x10", "--out", "x.png"], "size");
+    fails_with(&["render", "--size", "0x10", "--out", "x.png"], "must be between 1x1 and 8192x8192");
     fails_with(&["render", "--emitter-scale", "NaN", "--out", "x.png"], "emitter-scale");
-    fails_with(&["reference", "--scene", "terrain:sun=90", "--out", o], "sun");
+    fails_with(&["reference", "--scene", "terrain:sun=90", "--out", o], "'sun' = '90': out of range");
     std::fs::remove_dir_all(out).ok();
 }

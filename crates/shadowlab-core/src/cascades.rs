@@ -262,6 +262,45 @@ impl CascadeFrame {
     }
 }
 
+/// The widest penumbra (world units) that `light` can cast from the occluders in `occluders` onto
+/// the scene `scene`: occluder edges as near the light as the occluders' box comes, receivers as far
+/// as the scene reaches (for the sun: the scene's depth along the light). The estimate behind
+/// `cssm`'s automatic sample counts.
+pub fn widest_penumbra(light: &Light, occluders: &Aabb, scene: &Aabb) -> f32 {
+    if occluders.is_empty() || light.is_hard() {
+        return 0.0;
+    }
+    match light.position() {
+        Some(p) => {
+            let nearest = p.clamp(occluders.min, occluders.max).distance(p);
+            let far = scene.corners().iter().map(|c| c.distance(p)).fold(0.0f32, f32::max);
+            // An occluder closer than 5% of the scene's reach would make every penumbra "infinite":
+            // such blockers shade little of what the camera sees.
+            2.0 * light.penumbra_half_width(nearest.max(0.05 * far), far)
+        }
+        None => {
+            let dir = light.direction().unwrap_or(Vec3::NEG_Y).normalize_or(Vec3::NEG_Y);
+            let depth = scene.extent().abs().dot(dir.abs());
+            2.0 * light.penumbra_half_width(0.0, depth)
+        }
+    }
+}
+
+/// `cssm`'s automatic sample count per axis for a cascade whose penumbrae are `width_px` pixels wide
+/// on screen: k hard-edge copies split a penumbra into k steps, which stay invisible (under the 3 × 3
+/// PCF) while at most `step_px` pixels wide: k = ⌈width/step⌉, clamped to 2…5 (Azri 2020's counts
+/// are k = 4, 3, 2; 5 is the 25 of its Dragon scene).
+pub fn samples_per_axis(width_px: f32, step_px: f32) -> u32 {
+    let k = (width_px / step_px.max(1e-3)).ceil();
+    if k.is_nan() { 2 } else { (k as u32).clamp(2, 5) }
+}
+
+/// World size of one pixel at eye depth `depth` for a vertical field of view `fov_y` over `height`
+/// pixels.
+pub fn pixel_size(depth: f32, fov_y: f32, height: u32) -> f32 {
+    2.0 * depth.max(0.0) * (0.5 * fov_y).tan() / height.max(1) as f32
+}
+
 /// The view's depth range clipped to the scene: the min and max view-axis distance over the vertices
 /// of V ∩ S (Stingl 2011, §3.3.1, after Zhang et al. 2007). `None` when the view misses the scene.
 pub fn adjusted_depth_range(view: &View, aspect: f32, scene: &Aabb) -> Option<(f32, f32)> {
@@ -743,5 +782,24 @@ mod tests {
         assert!((sampling_colour(3.25) - Vec3::new(0.3, 0.8, 1.0)).length() < 1e-5);
         assert!((sampling_colour(7.75) - Vec3::new(0.0, 0.0, 1.0)).length() < 1e-5);
         assert_eq!(split_colour(5), Vec3::new(1.0, 1.0, 0.0));
+    }
+
+    #[test]
+    fn cssm_auto_counts_follow_the_screen_penumbra() {
+        use crate::light::{Light, LightKind};
+        assert_eq!(samples_per_axis(0.0, 3.0), 2);
+        assert_eq!(samples_per_axis(10.0, 3.0), 4);
+        assert_eq!(samples_per_axis(100.0, 3.0), 5);
+        assert_eq!(samples_per_axis(f32::NAN, 3.0), 2);
+        let scene = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 3.0, 2.0));
+        let occ = Aabb::new(Vec3::new(-0.5, 0.9, -0.5), Vec3::new(0.5, 1.0, 0.5));
+        let light =
+            Light::new("l", LightKind::Point { position: Vec3::new(0.0, 3.0, 0.0), radius: 0.25 }, Vec3::ONE, 1.0);
+        // Nearest occluder point 2 m below the light, farthest scene corner √(4+4+9) away.
+        let far = 17f32.sqrt();
+        let w = widest_penumbra(&light, &occ, &scene);
+        assert!((w - 2.0 * 0.25 * (far - 2.0) / 2.0).abs() < 1e-5, "{w}");
+        assert_eq!(widest_penumbra(&light, &Aabb::EMPTY, &scene), 0.0);
+        assert!((pixel_size(2.0, std::f32::consts::FRAC_PI_2, 100) - 0.04).abs() < 1e-6);
     }
 }

@@ -106,6 +106,31 @@ impl Light {
         }
     }
 
+    /// The emitter's size as the soft-shadow approximations (PCSS, smoothies) see it: a radius for
+    /// local lights, the tangent of the angular radius for directional ones. A rectangle counts as
+    /// the square of equal area, whose half side gives the exact penumbra width along its axes
+    /// (the `penumbra` scene's closed form): `0.5·√(w·h)`.
+    pub fn emitter_extent(&self) -> EmitterExtent {
+        match self.kind {
+            LightKind::Point { radius, .. } | LightKind::Spot { radius, .. } => EmitterExtent::Radius(radius.max(0.0)),
+            LightKind::Rect { width, height, .. } => {
+                EmitterExtent::Radius(0.5 * (width.max(0.0) * height.max(0.0)).sqrt())
+            }
+            LightKind::Directional { angular_radius, .. } => EmitterExtent::Angle(angular_radius.max(0.0).tan()),
+        }
+    }
+
+    /// Half the width of the outer-to-inner penumbra that an occluder edge at distance `d` from the
+    /// light casts on a receiver at distance `r ≥ d` (similar triangles: `R·(r − d)/d`; for a
+    /// directional light `tan θ·(r − d)`).
+    pub fn penumbra_half_width(&self, d: f32, r: f32) -> f32 {
+        let gap = (r - d).max(0.0);
+        match self.emitter_extent() {
+            EmitterExtent::Radius(radius) => radius * gap / d.max(1e-6),
+            EmitterExtent::Angle(tan) => tan * gap,
+        }
+    }
+
     /// Multiplies the emitter size by `s` (0 makes the light hard: a point or a single direction).
     pub fn scale_emitter(&mut self, s: f32) {
         match &mut self.kind {
@@ -340,4 +365,13 @@ mod tests {
         s.scale_emitter(0.0);
         assert!(s.is_hard());
     }
+}
+
+/// An emitter's size for soft-shadow approximations ([`Light::emitter_extent`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EmitterExtent {
+    /// Radius in world units (sphere lights; rectangles as their equal-area square's half side).
+    Radius(f32),
+    /// Tangent of the angular radius (directional lights).
+    Angle(f32),
 }

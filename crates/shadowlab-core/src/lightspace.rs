@@ -224,6 +224,83 @@ pub fn directional_frustum(direction: Vec3, bounds: &Aabb, map_size: u32) -> Lig
     }
 }
 
+/// A perspective view from `eye` that holds `points` (the corners of a cascade's slice of the view
+/// frustum clipped to the scene, as cascaded soft shadow maps fit each sample's view: Azri 2020 §4)
+/// and every caster between the eye and them: the narrowest cone around their centroid. `None` when
+/// that cone is wider than 120° (the eye inside or beside the slice; wide perspective views waste
+/// their texels at the edges): then the whole-scene views of
+/// [`point_frusta_with`] fit better.
+pub fn focused_perspective(eye: Vec3, points: &[Vec3], scene: &Aabb, map_size: u32) -> Option<ShadowView> {
+    if points.is_empty() {
+        return None;
+    }
+    let centroid = points.iter().copied().sum::<Vec3>() / points.len() as f32;
+    let axis = (centroid - eye).try_normalize()?;
+    let mut tan_half = 0.0f32;
+    let mut far = 0.0f32;
+    for &p in points {
+        let d = p - eye;
+        let along = d.dot(axis);
+        let across = (d - axis * along).length();
+        if along <= 1e-6 * (1.0 + across) {
+            return None;
+        }
+        tan_half = tan_half.max(across / along);
+        far = far.max(along);
+    }
+    if tan_half.is_nan() || tan_half > 60f32.to_radians().tan() {
+        return None;
+    }
+    // One texel of margin around the cone for filter kernels.
+    let fov = 2.0 * (tan_half.max(1e-6) * (1.0 + 2.0 / map_size.max(8) as f32)).atan();
+    let far = far * 1.01;
+    let diag = scene.diagonal().max(1e-3);
+    let box_near = scene.corners().iter().map(|&c| (c - eye).dot(axis)).fold(f32::INFINITY, f32::min);
+    let near = (0.99 * box_near).max(NEAR_FRACTION * diag).min(0.5 * far);
+    Some(ShadowView::perspective(eye, axis, fov, near, far, map_size))
+}
+
+/// An orthographic view along `direction` whose map covers `points` across the light and the whole
+/// scene along it (casters anywhere up the light's path).
+pub fn focused_directional(direction: Vec3, scene: &Aabb, points: &[Vec3], map_size: u32) -> ShadowView {
+    let dir = direction.normalize_or(Vec3::NEG_Y);
+    let scene_radius = 0.5 * scene.diagonal().max(1e-3);
+    let eye = scene.center() - dir * (scene_radius * 1.1);
+    let view = look_along(eye, dir);
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for p in points.iter().copied().chain(scene.corners()) {
+        let v = view.transform_point3(p);
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    let (mut across_lo, mut across_hi) = (lo, hi);
+    if !points.is_empty() {
+        across_lo = Vec3::splat(f32::INFINITY);
+        across_hi = Vec3::splat(f32::NEG_INFINITY);
+        for &p in points {
+            let v = view.transform_point3(p);
+            across_lo = across_lo.min(v);
+            across_hi = across_hi.max(v);
+        }
+    }
+    let (near, far) = ((-hi.z - 0.01 * scene_radius).max(0.0), -lo.z + 0.01 * scene_radius);
+    let side = (across_hi.x - across_lo.x).max(across_hi.y - across_lo.y).max(1e-4);
+    let pad = 2.0 * side / map_size.max(8) as f32;
+    let (l, r, b, t) = (across_lo.x - pad, across_hi.x + pad, across_lo.y - pad, across_hi.y + pad);
+    let projection = orthographic_reversed(l, r, b, t, near, far);
+    ShadowView {
+        view,
+        projection,
+        view_projection: projection * view,
+        eye,
+        axis: dir,
+        orthographic: true,
+        near,
+        far,
+        texel_scale: (r - l).max(t - b) / map_size.max(1) as f32,
+    }
+}
+
 /// The hard-shadow views of a light's centre (its emitter size ignored): spot lights by their cone,
 /// point and rectangle lights by the scene, directional lights fitted to the scene bounds.
 pub fn light_frusta(light: &Light, bounds: &Aabb, map_size: u32) -> LightFrusta {
@@ -319,5 +396,34 @@ mod tests {
         // Texel size grows with distance along the axis.
         let v = &f.views[0];
         assert!(v.texel_size_at(Vec3::new(0.0, -4.0, 0.0)) > 1.9 * v.texel_size_at(Vec3::ZERO));
+    }
+
+    #[test]
+    fn focused_views_hold_their_points() {
+        let scene = Aabb { min: Vec3::new(-5.0, 0.0, -5.0), max: Vec3::new(5.0, 3.0, 5.0) };
+        let (centre, radius) = (Vec3::new(1.0, 0.5, -1.0), 1.2);
+        let points: Vec<Vec3> = (0..64)
+            .map(|k| {
+                let a = k as f32 * 0.7;
+                centre + radius * Vec3::new(a.cos() * (0.3 * a).cos(), (0.3 * a).sin(), a.sin() * (0.3 * a).cos())
+            })
+            .collect();
+        let eye = Vec3::new(0.2, 2.9, 0.3);
+        let v = focused_perspective(eye, &points, &scene, 256).unwrap();
+        let dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+        let o = focused_directional(dir, &scene, &points, 256);
+        for &q in &points {
+            for view in [&v, &o] {
+                let m = view.project(q);
+                assert!(m.x >= 0.0 && m.x <= 1.0 && m.y >= 0.0 && m.y <= 1.0 && m.z >= 0.0 && m.z <= 1.0, "{m}");
+            }
+        }
+        // A caster between the eye and the points is inside the depth range.
+        let m = v.project(eye + (centre - eye) * 0.05);
+        assert!(m.z <= 1.0 && m.z >= 0.0, "{m}");
+        // The sun's view keeps the whole scene along the light: a point above the slice.
+        assert!(o.project(centre - dir * 2.0).z <= 1.0);
+        // Among the points there is no focused perspective view.
+        assert!(focused_perspective(centre, &points, &scene, 256).is_none());
     }
 }

@@ -182,15 +182,150 @@ pub fn emitter_points(light: &Light, n: u32) -> Vec<EmitterPoint> {
         .into_iter()
         .map(|u| match light.kind {
             LightKind::Point { position, radius } | LightKind::Spot { position, radius, .. } => {
-                let z = 1.0 - 2.0 * u.x;
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let phi = std::f32::consts::TAU * u.y;
-                let normal = Vec3::new(r * phi.cos(), z, r * phi.sin());
+                let normal = sphere_point(u);
                 EmitterPoint { sample: EmitterSample::Point(position + radius * normal), sphere_normal: Some(normal) }
             }
             _ => EmitterPoint { sample: sample_emitter(light, Vec3::ZERO, u), sphere_normal: None },
         })
         .collect()
+}
+
+/// How the fixed emitter samples of a multi-map technique are placed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SamplePattern {
+    /// Cell centres of a k × k grid ([`emitter_points`]).
+    Grid,
+    /// One jittered point per grid cell (fixed seed): stratified, without the grid's aligned steps.
+    Stratified,
+    /// Toromanoff 2005 (algorithm D, Fig. 23): concentric rings on a disk of the light's radius
+    /// perpendicular to an axis (the spot's axis, straight down for point lights, the cone for the
+    /// sun). The ring layout is not stated in the thesis; here a centre sample and rings of 6, 12,
+    /// 18, … samples at equal-area radii (N = 19 is Toromanoff's ≈ 20), each ring turned by half a
+    /// step against the previous one. On rectangles the rings go through the inverse concentric map
+    /// (nested squares of equal area).
+    Rings,
+}
+
+impl SamplePattern {
+    pub const NAMES: &'static [&'static str] = &["grid", "stratified", "rings"];
+
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "grid" => Some(Self::Grid),
+            "stratified" => Some(Self::Stratified),
+            "rings" => Some(Self::Rings),
+            _ => None,
+        }
+    }
+}
+
+/// Points of the unit disk on concentric rings of 1, 6, 12, 18, … samples (the last ring takes the
+/// remainder), each at the radius that halves its share of the disk's area, so that every sample
+/// stands for the same area.
+pub fn ring_points(n: u32) -> Vec<Vec2> {
+    let n = n.max(1);
+    let mut counts = vec![1u32];
+    while counts.iter().sum::<u32>() < n {
+        let total: u32 = counts.iter().sum();
+        counts.push((6 * counts.len() as u32).min(n - total));
+    }
+    let mut out = Vec::with_capacity(n as usize);
+    let mut before = 0u32;
+    for (ring, &count) in counts.iter().enumerate() {
+        let radius = if ring == 0 { 0.0 } else { ((before as f32 + 0.5 * count as f32) / n as f32).sqrt() };
+        let turn = if ring % 2 == 0 { 0.5 } else { 0.0 };
+        for k in 0..count {
+            let phi = std::f32::consts::TAU * (k as f32 + turn) / count as f32;
+            out.push(radius * Vec2::new(phi.cos(), phi.sin()));
+        }
+        before += count;
+    }
+    out
+}
+
+/// [`emitter_points`] with a choice of pattern.
+pub fn emitter_points_with(light: &Light, n: u32, pattern: SamplePattern) -> Vec<EmitterPoint> {
+    if light.is_hard() {
+        return emitter_points(light, 1);
+    }
+    match (pattern, light.kind) {
+        (SamplePattern::Grid, _) => emitter_points(light, n),
+        (SamplePattern::Rings, LightKind::Point { position, radius } | LightKind::Spot { position, radius, .. }) => {
+            let axis = match light.kind {
+                LightKind::Spot { direction, .. } => direction.normalize_or(Vec3::NEG_Y),
+                _ => Vec3::NEG_Y,
+            };
+            let (t, b) = orthonormal_basis(axis);
+            ring_points(n)
+                .into_iter()
+                .map(|d| EmitterPoint {
+                    sample: EmitterSample::Point(position + radius * (t * d.x + b * d.y)),
+                    sphere_normal: None,
+                })
+                .collect()
+        }
+        (SamplePattern::Rings, LightKind::Directional { .. } | LightKind::Rect { .. }) => ring_points(n)
+            .into_iter()
+            .map(|d| {
+                // Through the inverse concentric map: equal areas of the disk stay equal on the
+                // cone of directions and on the rectangle (rings become nested squares there).
+                let u = disk_to_square(d);
+                EmitterPoint { sample: sample_emitter(light, Vec3::ZERO, u), sphere_normal: None }
+            })
+            .collect(),
+        (SamplePattern::Stratified, _) => {
+            let mut rng = Rng::new(0x5EED_0F1A);
+            let mut cells = Vec::new();
+            jittered_grid(n, &mut rng, &mut cells);
+            match light.kind {
+                LightKind::Point { position, radius } | LightKind::Spot { position, radius, .. } => cells
+                    .into_iter()
+                    .map(|u| {
+                        let normal = sphere_point(u);
+                        EmitterPoint {
+                            sample: EmitterSample::Point(position + radius * normal),
+                            sphere_normal: Some(normal),
+                        }
+                    })
+                    .collect(),
+                _ => cells
+                    .into_iter()
+                    .map(|u| EmitterPoint { sample: sample_emitter(light, Vec3::ZERO, u), sphere_normal: None })
+                    .collect(),
+            }
+        }
+    }
+}
+
+/// Archimedes' equal-area map from the unit square onto the unit sphere.
+fn sphere_point(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    Vec3::new(r * phi.cos(), z, r * phi.sin())
+}
+
+/// The inverse of [`concentric_disk`]: the unit-square point that maps to disk point `d`.
+pub fn disk_to_square(d: Vec2) -> Vec2 {
+    let r = d.length();
+    if r == 0.0 {
+        return Vec2::splat(0.5);
+    }
+    use std::f32::consts::{FRAC_PI_4, PI};
+    let mut phi = d.y.atan2(d.x);
+    if phi < -FRAC_PI_4 {
+        phi += 2.0 * PI;
+    }
+    let a = if phi < FRAC_PI_4 {
+        Vec2::new(r, r * phi / FRAC_PI_4)
+    } else if phi < 3.0 * FRAC_PI_4 {
+        Vec2::new(-r * (phi - 2.0 * FRAC_PI_4) / FRAC_PI_4, r)
+    } else if phi < 5.0 * FRAC_PI_4 {
+        Vec2::new(-r, -r * (phi - 4.0 * FRAC_PI_4) / FRAC_PI_4)
+    } else {
+        Vec2::new(r * (phi - 6.0 * FRAC_PI_4) / FRAC_PI_4, -r)
+    };
+    (a + Vec2::ONE) * 0.5
 }
 
 #[cfg(test)]
@@ -280,6 +415,45 @@ mod tests {
             let (t, b) = orthonormal_basis(n);
             assert!(t.dot(b).abs() < 1e-6 && t.dot(n).abs() < 1e-6 && b.dot(n).abs() < 1e-6);
             assert!((t.length() - 1.0).abs() < 1e-6 && (b.length() - 1.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn rings_are_equal_area_and_inverse_map_round_trips() {
+        let p = ring_points(19);
+        assert_eq!(p.len(), 19);
+        assert_eq!(p[0], Vec2::ZERO);
+        // 1 + 6 + 12: the second ring at √(4/19), the third at √(13/19).
+        assert!((p[1].length() - (4.0f32 / 19.0).sqrt()).abs() < 1e-6);
+        assert!((p[18].length() - (13.0f32 / 19.0).sqrt()).abs() < 1e-6);
+        assert_eq!(ring_points(20).len(), 20);
+        assert!(ring_points(64).iter().all(|q| q.length() < 1.0));
+        // Equal area: the mean squared radius of a uniform disk is ½ (64 ring samples: 0.4999).
+        let m = ring_points(64).iter().map(|q| q.length_squared()).sum::<f32>() / 64.0;
+        assert!((m - 0.5).abs() < 0.01, "{m}");
+        for u in [Vec2::new(0.1, 0.7), Vec2::new(0.9, 0.2), Vec2::new(0.5, 0.95), Vec2::new(0.3, 0.3)] {
+            let back = disk_to_square(concentric_disk(u));
+            assert!(back.distance(u) < 1e-5, "{u} {back}");
+        }
+    }
+
+    #[test]
+    fn patterns_give_n_points_on_the_emitter() {
+        use crate::light::Light;
+        let sphere = Light::new("s", LightKind::Point { position: Vec3::Y, radius: 0.5 }, Vec3::ONE, 1.0);
+        for pattern in [SamplePattern::Grid, SamplePattern::Stratified, SamplePattern::Rings] {
+            let pts = emitter_points_with(&sphere, 16, pattern);
+            assert_eq!(pts.len(), 16, "{pattern:?}");
+            for p in &pts {
+                let EmitterSample::Point(q) = p.sample else { panic!() };
+                assert!(q.distance(Vec3::Y) <= 0.5 + 1e-5);
+            }
+        }
+        let sun =
+            Light::new("d", LightKind::Directional { direction: Vec3::NEG_Y, angular_radius: 0.1 }, Vec3::ONE, 1.0);
+        for p in emitter_points_with(&sun, 19, SamplePattern::Rings) {
+            let EmitterSample::Direction(d) = p.sample else { panic!() };
+            assert!(d.dot(Vec3::Y) >= 0.1f32.cos() - 1e-5);
         }
     }
 }

@@ -202,6 +202,12 @@ impl Scene {
         self.bounds_where(|i| i.casts_shadows)
     }
 
+    /// World-space bounds of the shadow casters that are not receivers (floors and walls): the
+    /// objects whose penumbrae soft-shadow estimates care about.
+    pub fn occluder_bounds(&self) -> Aabb {
+        self.bounds_where(|i| i.casts_shadows && i.role != Some(Role::Receiver))
+    }
+
     fn bounds_where(&self, keep: impl Fn(&Instance) -> bool) -> Aabb {
         let mesh_bounds: Vec<Aabb> = self.meshes.iter().map(Mesh::bounds).collect();
         self.instances

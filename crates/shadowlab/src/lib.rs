@@ -17,6 +17,7 @@ pub mod gpu;
 pub mod gpu_scene;
 pub mod kernel;
 pub mod renderer;
+pub mod sample_maps;
 pub mod shader;
 pub mod shadowmap;
 pub mod technique;

@@ -14,6 +14,7 @@ const SHARED: &[(&str, &str)] = &[
     ("maplookup.wgsl", include_str!("shaders/maplookup.wgsl")),
     ("pcfkernel.wgsl", include_str!("shaders/pcfkernel.wgsl")),
     ("selection.wgsl", include_str!("shaders/selection.wgsl")),
+    ("samples.wgsl", include_str!("shaders/samples.wgsl")),
     ("volumes_common.wgsl", include_str!("techniques/volumes/common.wgsl")),
 ];
 

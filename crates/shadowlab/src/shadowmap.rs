@@ -20,6 +20,8 @@ pub struct ShadowViewUniform {
     pub view_proj: [[f32; 4]; 4],
     pub eye: [f32; 4],
     pub axis: [f32; 4],
+    /// x, y: the view's near and far distances (to turn stored depths back into distances).
+    pub range: [f32; 4],
 }
 
 impl From<&ShadowView> for ShadowViewUniform {
@@ -28,6 +30,7 @@ impl From<&ShadowView> for ShadowViewUniform {
             view_proj: v.view_projection.to_cols_array_2d(),
             eye: v.eye.extend(if v.orthographic { 1.0 } else { 0.0 }).into(),
             axis: v.axis.extend(v.texel_scale).into(),
+            range: [v.near, v.far, 0.0, 0.0],
         }
     }
 }

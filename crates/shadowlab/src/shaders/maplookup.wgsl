@@ -47,10 +47,14 @@ fn map_point(p: vec3<f32>, n: vec3<f32>, l: vec3<f32>, views_base: u32) -> MapPo
 @group(1) @binding(0) var shadow_maps: texture_depth_2d_array;
 @group(1) @binding(1) var shadow_sampler: sampler_comparison;
 
-// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit.
-fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
+// One comparison of depth `z` at an offset of `offset` texels in texture layer `layer`; 1 = lit.
+fn map_tap_z(mp: MapPoint, offset: vec2<f32>, layer: u32, z: f32) -> f32 {
     let uv = mp.uvz.xy + offset / map_params.bias.z;
-    return textureSampleCompareLevel(shadow_maps, shadow_sampler, uv, i32(layer), mp.uvz.z);
+    return textureSampleCompareLevel(shadow_maps, shadow_sampler, uv, i32(layer), z);
+}
+
+fn stored_depth(t: vec2<i32>, layer: u32) -> f32 {
+    return textureLoad(shadow_maps, t, i32(layer), 0);
 }
 // #else
 // Where comparison samplers of texture arrays do not work (wgpu's GL backend), the depths are read
@@ -61,22 +65,62 @@ fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
 fn map_compare(texel: vec2<i32>, layer: u32, z: f32) -> f32 {
     let last = i32(map_params.bias.z) - 1;
     let t = clamp(texel, vec2<i32>(0), vec2<i32>(last));
-    return select(0.0, 1.0, z >= textureLoad(shadow_maps, t, i32(layer), 0).r);
+    return select(0.0, 1.0, z >= stored_depth(t, layer));
 }
 
-// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit.
-fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
+// One comparison of depth `z` at an offset of `offset` texels in texture layer `layer`; 1 = lit.
+fn map_tap_z(mp: MapPoint, offset: vec2<f32>, layer: u32, z: f32) -> f32 {
     let st = (mp.uvz.xy * map_params.bias.z) + offset;
     if (map_params.mode.x < 0.5) {
-        return map_compare(vec2<i32>(floor(st)), layer, mp.uvz.z);
+        return map_compare(vec2<i32>(floor(st)), layer, z);
     }
     let s = st - vec2<f32>(0.5);
     let base = vec2<i32>(floor(s));
     let f = s - floor(s);
-    let c00 = map_compare(base, layer, mp.uvz.z);
-    let c10 = map_compare(base + vec2<i32>(1, 0), layer, mp.uvz.z);
-    let c01 = map_compare(base + vec2<i32>(0, 1), layer, mp.uvz.z);
-    let c11 = map_compare(base + vec2<i32>(1, 1), layer, mp.uvz.z);
+    let c00 = map_compare(base, layer, z);
+    let c10 = map_compare(base + vec2<i32>(1, 0), layer, z);
+    let c01 = map_compare(base + vec2<i32>(0, 1), layer, z);
+    let c11 = map_compare(base + vec2<i32>(1, 1), layer, z);
     return mix(mix(c00, c10, f.x), mix(c01, c11, f.x), f.y);
 }
+
+fn stored_depth(t: vec2<i32>, layer: u32) -> f32 {
+    return textureLoad(shadow_maps, t, i32(layer), 0).r;
+}
 // #endif
+
+// The stored depth at an offset of `offset` texels, nearest texel (PCSS's blocker search).
+fn map_depth(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
+    let last = i32(map_params.bias.z) - 1;
+    let t = clamp(vec2<i32>(floor(mp.uvz.xy * map_params.bias.z + offset)), vec2<i32>(0), vec2<i32>(last));
+    return stored_depth(t, layer);
+}
+
+// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit.
+fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
+    return map_tap_z(mp, offset, layer, mp.uvz.z);
+}
+
+// Receiver-plane depth bias (Isidoro 2006, "Shadow Mapping: GPU-based Tips and Techniques", GDC):
+// the change of the receiver's map depth per texel of offset, from two points of its tangent plane
+// (p, n: the surface point and normal). Wide kernels compare each tap with the receiver's own depth
+// there instead of the centre's, so planes do not shadow themselves. Zero where the plane is seen
+// edge-on from the light.
+fn receiver_plane_gradient(mp: MapPoint, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
+    let view = shadow_views[mp.layer];
+    var t = cross(n, vec3<f32>(0.0, 1.0, 0.0));
+    if (dot(t, t) < 1.0e-6) {
+        t = cross(n, vec3<f32>(1.0, 0.0, 0.0));
+    }
+    t = normalize(t);
+    let b = cross(n, t);
+    let o = shadow_project(view, p);
+    let a = (shadow_project(view, p + t * mp.texel) - o) * vec3<f32>(map_params.bias.z, map_params.bias.z, 1.0);
+    let c = (shadow_project(view, p + b * mp.texel) - o) * vec3<f32>(map_params.bias.z, map_params.bias.z, 1.0);
+    // Texel offset d = a.xy·k.x + c.xy·k.y changes depth by a.z·k.x + c.z·k.y: g = M⁻ᵀ (a.z, c.z).
+    let det = a.x * c.y - c.x * a.y;
+    if (abs(det) < 1.0e-3) {
+        return vec2<f32>(0.0);
+    }
+    return vec2<f32>(c.y * a.z - a.y * c.z, a.x * c.z - c.x * a.z) / det;
+}

@@ -7,6 +7,8 @@ struct ShadowView {
     eye: vec4<f32>,
     // xyz: unit axis; w: texel scale (world size of a texel, per unit distance for perspective views).
     axis: vec4<f32>,
+    // x, y: near and far distances along the axis.
+    range: vec4<f32>,
 };
 
 // The cube face of a direction, in the layer order +X, −X, +Y, −Y, +Z, −Z.
@@ -26,6 +28,17 @@ fn shadow_project(v: ShadowView, p: vec3<f32>) -> vec3<f32> {
     let c = v.view_proj * vec4<f32>(p, 1.0);
     let ndc = c.xyz / c.w;
     return vec3<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y, ndc.z);
+}
+
+// The distance along the view's axis of a point stored at reversed-Z depth z (inverting
+// lightspace::perspective_reversed and orthographic_reversed).
+fn shadow_distance(v: ShadowView, z: f32) -> f32 {
+    let n = v.range.x;
+    let f = v.range.y;
+    if (v.eye.w > 0.5) {
+        return f - z * (f - n);
+    }
+    return n * f / max(z * (f - n) + n, 1.0e-20);
 }
 
 // World size of one shadow-map texel at p (the larger side of its footprint across the light

@@ -1,10 +1,14 @@
 //! The shadow techniques, one module each with its WGSL beside it.
 
+mod blurred;
 mod cascaded;
+mod cssm;
 mod hard;
 mod none;
 mod pcf;
+mod pcss;
 mod sampled;
+mod smoothies;
 mod volumes;
 
 use crate::technique::TechniqueInfo;
@@ -14,5 +18,15 @@ pub use cascaded::{cascade_settings, selection_layout};
 /// Every light type.
 pub(crate) const ALL_LIGHTS: &[&str] = &["point", "spot", "directional", "rect"];
 
-pub(crate) static REGISTRY: &[TechniqueInfo] =
-    &[none::INFO, hard::INFO, pcf::INFO, sampled::INFO, cascaded::INFO, volumes::INFO];
+pub(crate) static REGISTRY: &[TechniqueInfo] = &[
+    none::INFO,
+    hard::INFO,
+    pcf::INFO,
+    sampled::INFO,
+    cascaded::INFO,
+    volumes::INFO,
+    pcss::INFO,
+    blurred::INFO,
+    cssm::INFO,
+    smoothies::INFO,
+];

@@ -1,29 +1,31 @@
 //! `sampled`: the documents' own ground truth on the GPU. The area light is replaced by N point
 //! samples with one hard shadow map each, and V is their average (Guennebaud et al. 2007, Fig. 1:
-//! 1024 maps; Azri 2020 §3: k × k samples; Toromanoff 2005, algorithm D). Samples: the k × k grid on
-//! rectangles, cone directions for the sun, and equal-area points on the sphere for sphere lights,
-//! weighted per receiver by their projected area so that they cover the light's disk uniformly
-//! ([`shadowlab_core::sampling::emitter_points`]). It doubles as a check of the CPU reference.
+//! 1024 maps; Azri 2020 §3: k × k samples; Toromanoff 2005, algorithm D). It doubles as a check of
+//! the CPU reference.
 //!
-//! The maps are rendered one sample at a time into the same layers and accumulated per pixel
-//! ("accumulation over passes"): memory stays that of one map, time grows with N.
+//! - `pattern`: the k × k grid (Azri), one jittered point per grid cell (`stratified`), or
+//!   Toromanoff's concentric rings (`rings`, [`shadowlab_core::sampling::SamplePattern::Rings`]).
+//!   Grid and stratified samples of sphere lights cover the whole sphere at equal area and are
+//!   weighted per receiver by their projected area, so that they cover the light's disk uniformly
+//!   ([`shadowlab_core::sampling::emitter_points`]).
+//! - `pcf`: a 3 × 3 PCF on every sample's map (Azri 2020 Eq. 3.8), which hides the steps between
+//!   the samples' hard edges with few samples.
+//! - `mode`: `accumulate` renders the samples one after the other into the same layers and adds each
+//!   to per-pixel sums (memory of one map, whatever N); `array` renders every sample into its own
+//!   layer of one texture array and looks them all up in a single pass (Azri 2020 §3: about 10%
+//!   faster; memory grows with N, and N × views must fit the device's array layers).
 
-use bytemuck::{Pod, Zeroable};
-use glam::Vec4;
-use shadowlab_core::lightspace::{LightFrusta, ShadowView, directional_frustum, point_frusta_with};
+use shadowlab_core::lightspace::{LightFrusta, directional_frustum, point_frusta_with};
 use shadowlab_core::params::ParamDef;
-use shadowlab_core::sampling::{EmitterSample, emitter_points};
+use shadowlab_core::sampling::{EmitterSample, SamplePattern, emitter_points_with};
 use shadowlab_core::{Light, LightKind, ParamSet};
 
 use crate::frame::VisibilityLayer;
-use crate::shadowmap::{
-    BiasUniform, CONSTANT_BIAS, FACES, FaceMode, NORMAL_OFFSET, Raster, SLOPE_BIAS, ShadowMapArray, lookup_group,
-    lookup_layout,
+use crate::sample_maps::{
+    self, SET_FIRST, SET_PCF, SET_SHARED_LAYERS, SampleMaps, SetConfig, SetUniform, uniform_layout,
 };
-use crate::technique::{
-    FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, storage_entry,
-};
-use crate::timing::PassKind;
+use crate::shadowmap::{CONSTANT_BIAS, FACES, FaceMode, NORMAL_OFFSET, Raster, SLOPE_BIAS, lookup_layout};
+use crate::technique::{FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "sampled",
@@ -32,6 +34,14 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     params: &[
         ParamDef::int("samples", 64, 1, 4096, "emitter samples (one shadow map each)"),
         ParamDef::int("map_size", 512, 16, 8192, "shadow map resolution of each sample"),
+        PATTERN,
+        ParamDef::bool("pcf", false, "3×3 PCF on every sample's map (Azri 2020)"),
+        ParamDef::choice(
+            "mode",
+            "accumulate",
+            &["accumulate", "array"],
+            "accumulate over passes, or one texture array looked up in one pass",
+        ),
         FACES,
         SLOPE_BIAS,
         NORMAL_OFFSET,
@@ -41,12 +51,9 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create,
 };
 
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-struct SampleInfo {
-    position: Vec4,
-    normal: Vec4,
-}
+/// The sample pattern parameter, shared with `cssm`.
+pub const PATTERN: ParamDef =
+    ParamDef::choice("pattern", "grid", SamplePattern::NAMES, "emitter samples: k×k grid, jittered grid or rings");
 
 struct Sampled {
     params: ParamSet,
@@ -58,52 +65,34 @@ struct Sampled {
 
 /// Built on the first frame, when the scene bounds and the surface size are known.
 struct State {
-    maps: ShadowMapArray,
+    set: SampleMaps,
     raster: Raster,
-    faces: u32,
-    samples: u32,
-    lookup: wgpu::BindGroup,
-    sample_group: wgpu::BindGroup,
-    step_stride: u64,
-    bytes: u64,
+    accum_bytes: u64,
     draws: u32,
 }
 
-fn sample_layout(shared: &Shared) -> wgpu::BindGroupLayout {
-    shared.layout("sampled samples", || {
-        let c = wgpu::ShaderStages::COMPUTE;
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("sampled samples"),
-            entries: &[
-                storage_entry(0, c, true),
-                storage_entry(1, c, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: c,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: std::num::NonZeroU64::new(16),
-                    },
-                    count: None,
-                },
-            ],
-        })
-    })
+/// The pipelines of a `samples.wgsl` technique: `accumulate` and `finish` of `source`.
+pub(crate) fn sample_pipelines(
+    shared: &Shared,
+    key: &str,
+    source: &str,
+) -> (wgpu::ComputePipeline, wgpu::ComputePipeline) {
+    let extra = [&lookup_layout(shared), &sample_maps::layout(shared)];
+    (
+        shared.resolve_pipeline(&format!("{key} accumulate"), source, "accumulate", &extra, &[]),
+        shared.resolve_pipeline(&format!("{key} finish"), source, "finish", &extra, &[]),
+    )
 }
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let extra = [&lookup_layout(shared), &sample_layout(shared)];
-    let source = include_str!("sampled.wgsl");
-    let accumulate = shared.resolve_pipeline("sampled accumulate", source, "accumulate", &extra, &[]);
-    let finish = shared.resolve_pipeline("sampled finish", source, "finish", &extra, &[]);
+    let (accumulate, finish) = sample_pipelines(shared, "sampled", include_str!("sampled.wgsl"));
     Ok(Box::new(Sampled { params: params.clone(), state: None, accumulate, finish, triangles: 0 }))
 }
 
-/// The views of every sample, all with the same layout (all cube or all single).
-fn sample_frusta(
+/// The whole-scene views of every sample, all with the same layout (all cube or all single).
+pub(crate) fn sample_frusta(
     light: &Light,
-    points: &[EmitterSample],
+    samples: &[EmitterSample],
     bounds: &shadowlab_core::Aabb,
     size: u32,
 ) -> Vec<LightFrusta> {
@@ -112,106 +101,53 @@ fn sample_frusta(
         LightKind::Rect { direction, .. } => Some((direction, std::f32::consts::FRAC_PI_2)),
         _ => None,
     };
-    let make = |force_cube: bool| -> Vec<LightFrusta> {
-        points
+    uniform_layout(|force_cube| {
+        samples
             .iter()
             .map(|s| match *s {
                 EmitterSample::Point(p) => point_frusta_with(p, bounds, cone, size, force_cube),
                 EmitterSample::Direction(d) => directional_frustum(-d, bounds, size),
             })
             .collect()
-    };
-    let first = make(false);
-    if first.iter().any(|f| f.cube) && !first.iter().all(|f| f.cube) { make(true) } else { first }
+    })
 }
 
 impl Sampled {
-    fn build(&self, ctx: &FrameContext<'_>) -> State {
+    fn build(&self, ctx: &FrameContext<'_>) -> Result<State, TechniqueError> {
         let shared = ctx.shared;
-        let device = &shared.gpu.device;
         let size = self.params.int("map_size") as u32;
-        let points = emitter_points(ctx.light, self.params.int("samples") as u32);
+        let pattern = SamplePattern::parse(self.params.choice("pattern")).unwrap_or(SamplePattern::Grid);
+        let points = emitter_points_with(ctx.light, self.params.int("samples") as u32, pattern);
         let samples: Vec<EmitterSample> = points.iter().map(|p| p.sample).collect();
         let frusta = sample_frusta(ctx.light, &samples, &ctx.gpu_scene.bounds, size);
         let faces = frusta[0].views.len() as u32;
         let n = points.len() as u32;
-        let maps = ShadowMapArray::new(shared, size, faces, n * faces);
-        let views: Vec<ShadowView> = frusta.iter().flat_map(|f| f.views.iter().copied()).collect();
-        maps.set_views(&shared.gpu.queue, 0, &views);
-        let bias = BiasUniform {
-            values: Vec4::new(
-                self.params.float("normal_offset") as f32,
-                self.params.float("constant_bias") as f32,
-                size as f32,
-                if faces == 6 { 1.0 } else { 0.0 },
-            ),
-            mode: Vec4::ZERO,
+        let array = self.params.choice("mode") == "array";
+        let pcf = if self.params.bool("pcf") { SET_PCF } else { 0 };
+        let sets: Vec<SetUniform> = if array {
+            vec![SetUniform::all(0, n, faces, pcf | SET_FIRST)]
+        } else {
+            (0..n)
+                .map(|i| SetUniform::all(i, 1, faces, pcf | SET_SHARED_LAYERS | if i == 0 { SET_FIRST } else { 0 }))
+                .collect()
         };
-        let bias_buffer = crate::util::uniform_buffer(device, "sampled bias", bytemuck::bytes_of(&bias));
-        let lookup = lookup_group(shared, &maps, &bias_buffer, false);
-        let infos: Vec<SampleInfo> = points
-            .iter()
-            .map(|p| {
-                let position = match p.sample {
-                    EmitterSample::Point(q) => q.extend(0.0),
-                    EmitterSample::Direction(d) => d.extend(1.0),
-                };
-                let normal = p.sphere_normal.map(|n| n.extend(1.0)).unwrap_or(Vec4::ZERO);
-                SampleInfo { position, normal }
-            })
-            .collect();
-        let sample_buffer = crate::util::storage_buffer(device, "samples", bytemuck::cast_slice(&infos));
-        let accum = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("sampled accumulation"),
-            size: 8 * u64::from(ctx.surface.width) * u64::from(ctx.surface.height),
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let stride = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(16);
-        let steps = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("sampled steps"),
-            size: stride * u64::from(n),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        for i in 0..n {
-            shared.gpu.queue.write_buffer(
-                &steps,
-                u64::from(i) * stride,
-                bytemuck::cast_slice(&[i, i * faces, faces, 0u32]),
-            );
-        }
-        let sample_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("sampled samples"),
-            layout: &sample_layout(shared),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: sample_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: accum.as_entire_binding() },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &steps,
-                        offset: 0,
-                        size: std::num::NonZeroU64::new(16),
-                    }),
-                },
-            ],
-        });
-        let bytes = maps.bytes() + sample_buffer.size() + accum.size() + steps.size() + bias_buffer.size();
-        State {
-            maps,
+        let accum = sample_maps::accumulation_buffer(shared, ctx.surface.width, ctx.surface.height);
+        let config = SetConfig {
+            size,
+            array,
+            normal_offset: self.params.float("normal_offset") as f32,
+            constant_bias: self.params.float("constant_bias") as f32,
+        };
+        let set = SampleMaps::new(shared, INFO.id, &points, &frusta, config, &accum, &sets)?;
+        Ok(State {
+            set,
             raster: Raster {
                 faces: FaceMode::parse(self.params.choice("faces")),
                 slope_bias: self.params.float("slope_bias") as f32,
             },
-            faces,
-            samples: n,
-            lookup,
-            sample_group,
-            step_stride: stride,
-            bytes,
+            accum_bytes: accum.size(),
             draws: 0,
-        }
+        })
     }
 }
 
@@ -226,54 +162,48 @@ impl ShadowTechnique for Sampled {
 
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
         if self.state.is_none() {
-            self.state = Some(self.build(ctx));
+            self.state = Some(self.build(ctx)?);
         }
         self.triangles = ctx.gpu_scene.triangles;
         Ok(())
     }
 
-    /// Renders and accumulates the samples one after the other, then writes V.
+    /// Array mode: renders every map, then one lookup pass. Accumulation: renders and looks up
+    /// the samples one after the other. Then writes V.
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let Some(state) = &mut self.state else { return };
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        let (w, h) = (crate::util::groups(ctx.surface.width, 8), crate::util::groups(ctx.surface.height, 8));
+        let set = &state.set;
         state.draws = 0;
-        for i in 0..state.samples {
-            for face in 0..state.faces {
-                state.draws += state.maps.render(ctx, face, i * state.faces + face, &state.raster);
+        if set.array {
+            for i in 0..set.samples {
+                state.draws += set.render_sample(ctx, i, &state.raster);
             }
-            let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);
-            let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("sampled accumulate"),
-                timestamp_writes: timestamps,
-            });
-            pass.set_pipeline(&self.accumulate);
-            pass.set_bind_group(0, Some(&group0), &[]);
-            pass.set_bind_group(1, Some(&state.lookup), &[]);
-            pass.set_bind_group(2, Some(&state.sample_group), &[(u64::from(i) * state.step_stride) as u32]);
-            pass.dispatch_workgroups(w, h, 1);
+            set.dispatch(ctx, "sampled lookup", &self.accumulate, &group0, 0);
+        } else {
+            for i in 0..set.samples {
+                state.draws += set.render_sample(ctx, i, &state.raster);
+                set.dispatch(ctx, "sampled accumulate", &self.accumulate, &group0, i as usize);
+            }
         }
-        let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);
-        let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("sampled finish"),
-            timestamp_writes: timestamps,
-        });
-        pass.set_pipeline(&self.finish);
-        pass.set_bind_group(0, Some(&group0), &[]);
-        pass.set_bind_group(1, Some(&state.lookup), &[]);
-        pass.set_bind_group(2, Some(&state.sample_group), &[0]);
-        pass.dispatch_workgroups(w, h, 1);
+        set.dispatch(ctx, "sampled finish", &self.finish, &group0, 0);
     }
 
     fn stats(&self) -> TechniqueStats {
         match &self.state {
-            Some(s) => TechniqueStats {
-                memory_bytes: s.bytes,
-                passes: s.samples * (s.faces + 1) + 1,
-                draws: s.draws,
-                triangles: self.triangles * u64::from(s.samples * s.faces),
-                extra: vec![("samples".into(), f64::from(s.samples)), ("views_per_sample".into(), f64::from(s.faces))],
-            },
+            Some(s) => {
+                let lookups = if s.set.array { 1 } else { s.set.samples };
+                TechniqueStats {
+                    memory_bytes: s.set.bytes() + s.accum_bytes,
+                    passes: s.set.samples * s.set.faces + lookups + 1,
+                    draws: s.draws,
+                    triangles: self.triangles * u64::from(s.set.samples * s.set.faces),
+                    extra: vec![
+                        ("samples".into(), f64::from(s.set.samples)),
+                        ("views_per_sample".into(), f64::from(s.set.faces)),
+                    ],
+                }
+            }
             None => TechniqueStats::default(),
         }
     }

@@ -1,0 +1,21 @@
+// `blurred`: Toromanoff 2005's blurred projected shadows (algorithm C): the hard shadow averaged
+// over an N × N grid of shifted copies, the same kernel everywhere.
+
+// #include "resolve.wgsl"
+// #include "pcfkernel.wgsl"
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (!in_frame(id.xy)) {
+        return;
+    }
+    let s = load_surface(id.xy);
+    var v = 1.0;
+    if (s.relevant) {
+        let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
+        if (mp.on_map) {
+            v = pcf_filter(mp, mp.layer, kernel.params.y, id.xy);
+        }
+    }
+    textureStore(visibility_out, id.xy, vec4<f32>(v));
+}

@@ -1,0 +1,84 @@
+// `pcss`: percentage-closer soft shadows (Fernando 2005). Blocker search, penumbra estimate from
+// the average blocker distance by similar triangles, then PCF over a kernel of that size.
+
+// #include "resolve.wgsl"
+// #include "maplookup.wgsl"
+
+struct Pcss {
+    // x: search taps; y: filter taps; z: 1 to rotate the disk per pixel; w: the emitter's radius
+    // (perspective views) or the tangent of its angular radius (orthographic views).
+    params: vec4<f32>,
+    // x, y: largest search and filter radii (texels); z: smallest filter radius (texels); w: the
+    // nearest distance from the light a blocker can have (the emitter's radius).
+    limits: vec4<f32>,
+    // xy: a progressive Poisson disk in the unit disk (every prefix well spread).
+    taps: array<vec4<f32>, 64>,
+};
+
+@group(2) @binding(0) var<uniform> pcss: Pcss;
+
+// Half the penumbra width at a receiver at distance zr for blockers at zb (Fernando 2005, Eq. 1).
+fn penumbra_half_width(view: ShadowView, zr: f32, zb: f32) -> f32 {
+    if (view.eye.w > 0.5) {
+        return pcss.params.w * max(zr - zb, 0.0);
+    }
+    return pcss.params.w * max(zr - zb, 0.0) / max(zb, 1.0e-6);
+}
+
+fn pcss_visibility(mp: MapPoint, p: vec3<f32>, n: vec3<f32>, pixel: vec2<u32>) -> f32 {
+    let view = shadow_views[mp.layer];
+    // Each tap is compared with the receiver plane's depth there (receiver-plane depth bias).
+    let g = receiver_plane_gradient(mp, p, n);
+    let zr = shadow_distance(view, mp.uvz.z);
+    var rot = mat2x2<f32>(1.0, 0.0, 0.0, 1.0);
+    if (pcss.params.z > 0.5) {
+        let a = 6.2831853 * interleaved_gradient_noise(vec2<f32>(pixel));
+        rot = mat2x2<f32>(cos(a), sin(a), -sin(a), cos(a));
+    }
+    // 1. Blocker search: the blockers that can hide part of the light lie in the cone from the
+    // receiver to the emitter; through the light's centre that cone covers, at the receiver's
+    // distance, the penumbra of the nearest possible blocker.
+    let zn = max(view.range.x, pcss.limits.w);
+    let search = clamp(penumbra_half_width(view, zr, min(zn, zr)) / max(mp.texel, 1.0e-12), 1.0, pcss.limits.x);
+    var sum = 0.0;
+    var count = 0.0;
+    let ns = max(u32(pcss.params.x), 1u);
+    for (var i = 0u; i < ns; i = i + 1u) {
+        let o = rot * pcss.taps[i].xy * search;
+        let d = map_depth(mp, o, mp.layer);
+        // Reversed Z: a larger stored depth is closer to the light.
+        if (d > mp.uvz.z + dot(g, o)) {
+            sum = sum + shadow_distance(view, d);
+            count = count + 1.0;
+        }
+    }
+    if (count == 0.0) {
+        return 1.0;
+    }
+    // 2. Penumbra estimate from the average blocker distance; 3. PCF over it.
+    let zb = sum / count;
+    let radius = clamp(penumbra_half_width(view, zr, zb) / max(mp.texel, 1.0e-12), pcss.limits.z, pcss.limits.y);
+    let nf = max(u32(pcss.params.y), 1u);
+    var v = 0.0;
+    for (var i = 0u; i < nf; i = i + 1u) {
+        let o = rot * pcss.taps[i].xy * radius;
+        v = v + map_tap_z(mp, o, mp.layer, mp.uvz.z + dot(g, o));
+    }
+    return v / f32(nf);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (!in_frame(id.xy)) {
+        return;
+    }
+    let s = load_surface(id.xy);
+    var v = 1.0;
+    if (s.relevant) {
+        let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
+        if (mp.on_map) {
+            v = pcss_visibility(mp, s.p, s.n, id.xy);
+        }
+    }
+    textureStore(visibility_out, id.xy, vec4<f32>(v));
+}

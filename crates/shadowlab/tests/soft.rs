@@ -107,7 +107,7 @@ fn penumbra_width_grows_with_the_light_as_the_closed_form_says() {
             let (w, w_exact) = (boundary_width(&run, &v), boundary_width(&run, &exact));
             // The map's texel on the ground: the hard map's view of the light's centre.
             let light = &scene.lights[0];
-            let map = spec.contains("sampled").then_some(512).unwrap_or(2048);
+            let map = if spec.contains("sampled") { 512 } else { 2048 };
             let frusta = shadowlab_core::lightspace::light_frusta(light, &scene.bounds(), map);
             let texel = frusta.view_for(glam::Vec3::new(0.75, 0.0, 0.0)).texel_size_at(glam::Vec3::new(0.75, 0.0, 0.0));
             println!(

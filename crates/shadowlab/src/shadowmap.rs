@@ -242,7 +242,8 @@ fn cull_mode(g: &DrawGroup, faces: FaceMode) -> Option<wgpu::Face> {
     }
 }
 
-fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+/// Group 0 of depth-only passes: one view-projection matrix per layer, by dynamic offset.
+pub(crate) fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("shadow view matrices", || {
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadow view matrices"),

@@ -12,12 +12,10 @@
 use shadowlab_core::params::ParamDef;
 use shadowlab_core::{Light, ParamSet};
 
-use crate::frame::VisibilityLayer;
+use super::map_lookup::MapLookup;
 use crate::kernel;
-use crate::shadowmap::{LightMap, lookup_layout};
-use crate::technique::{
-    FrameContext, MapAnalysis, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
-};
+use crate::shadowmap::lookup_layout;
+use crate::technique::{ShadowTechnique, Shared, TechniqueError, TechniqueInfo};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "blurred",
@@ -31,19 +29,10 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create,
 };
 
-struct Blurred {
-    params: ParamSet,
-    map: Option<LightMap>,
-    pipeline: wgpu::ComputePipeline,
-    kernel_group: wgpu::BindGroup,
-    kernel_bytes: u64,
-    triangles: u64,
-}
-
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
     let n = params.int("n") as usize;
     let k = kernel::kernel_uniform("box", n * n, params.float("radius") as f32, false);
-    let (kernel_group, kernel_bytes) = kernel::bind_group(shared, &k);
+    let own = kernel::bind_group(shared, &k);
     let pipeline = shared.resolve_pipeline(
         "blurred",
         include_str!("blurred.wgsl"),
@@ -51,50 +40,5 @@ fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn 
         &[&lookup_layout(shared), &kernel::layout(shared)],
         &[],
     );
-    Ok(Box::new(Blurred { params: params.clone(), map: None, pipeline, kernel_group, kernel_bytes, triangles: 0 }))
-}
-
-impl ShadowTechnique for Blurred {
-    fn id(&self) -> &'static str {
-        INFO.id
-    }
-
-    fn params(&self) -> &ParamSet {
-        &self.params
-    }
-
-    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
-        let map = self
-            .map
-            .get_or_insert_with(|| LightMap::new(ctx.shared, ctx.light, &ctx.gpu_scene.bounds, &self.params, true));
-        map.render(ctx);
-        self.triangles = ctx.gpu_scene.triangles;
-        Ok(())
-    }
-
-    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        let Some(map) = &self.map else { return };
-        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(ctx, "blurred", &self.pipeline, &[&group0, &map.group, &self.kernel_group]);
-    }
-
-    fn stats(&self) -> TechniqueStats {
-        match &self.map {
-            Some(m) => {
-                let (passes, draws, triangles) = m.counts(self.triangles);
-                TechniqueStats {
-                    memory_bytes: m.bytes() + self.kernel_bytes,
-                    passes: passes + 1,
-                    draws,
-                    triangles,
-                    extra: Vec::new(),
-                }
-            }
-            None => TechniqueStats::default(),
-        }
-    }
-
-    fn analysis(&self) -> Option<MapAnalysis<'_>> {
-        self.map.as_ref().map(|m| MapAnalysis { lookup: &m.group, selection: &m.selection })
-    }
+    Ok(MapLookup::boxed(INFO.id, params, true, pipeline, Some(own)))
 }

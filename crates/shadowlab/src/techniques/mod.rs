@@ -4,6 +4,7 @@ mod blurred;
 mod cascaded;
 mod cssm;
 mod hard;
+mod map_lookup;
 mod none;
 mod pcf;
 mod pcss;

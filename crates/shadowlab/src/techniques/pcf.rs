@@ -6,12 +6,10 @@
 
 use shadowlab_core::{Light, ParamSet};
 
-use crate::frame::VisibilityLayer;
+use super::map_lookup::MapLookup;
 use crate::kernel;
-use crate::shadowmap::{LightMap, lookup_layout};
-use crate::technique::{
-    FrameContext, MapAnalysis, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
-};
+use crate::shadowmap::lookup_layout;
+use crate::technique::{ShadowTechnique, Shared, TechniqueError, TechniqueInfo};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "pcf",
@@ -22,17 +20,8 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create,
 };
 
-struct Pcf {
-    params: ParamSet,
-    map: Option<LightMap>,
-    pipeline: wgpu::ComputePipeline,
-    kernel_group: wgpu::BindGroup,
-    kernel_bytes: u64,
-    triangles: u64,
-}
-
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let (kernel_group, kernel_bytes) = kernel::bind_group(shared, &kernel::from_params(params));
+    let own = kernel::bind_group(shared, &kernel::from_params(params));
     let pipeline = shared.resolve_pipeline(
         "pcf",
         include_str!("pcf.wgsl"),
@@ -40,50 +29,5 @@ fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn 
         &[&lookup_layout(shared), &kernel::layout(shared)],
         &[],
     );
-    Ok(Box::new(Pcf { params: params.clone(), map: None, pipeline, kernel_group, kernel_bytes, triangles: 0 }))
-}
-
-impl ShadowTechnique for Pcf {
-    fn id(&self) -> &'static str {
-        INFO.id
-    }
-
-    fn params(&self) -> &ParamSet {
-        &self.params
-    }
-
-    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
-        let map = self
-            .map
-            .get_or_insert_with(|| LightMap::new(ctx.shared, ctx.light, &ctx.gpu_scene.bounds, &self.params, true));
-        map.render(ctx);
-        self.triangles = ctx.gpu_scene.triangles;
-        Ok(())
-    }
-
-    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        let Some(map) = &self.map else { return };
-        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(ctx, "pcf", &self.pipeline, &[&group0, &map.group, &self.kernel_group]);
-    }
-
-    fn stats(&self) -> TechniqueStats {
-        match &self.map {
-            Some(m) => {
-                let (passes, draws, triangles) = m.counts(self.triangles);
-                TechniqueStats {
-                    memory_bytes: m.bytes() + self.kernel_bytes,
-                    passes: passes + 1,
-                    draws,
-                    triangles,
-                    extra: Vec::new(),
-                }
-            }
-            None => TechniqueStats::default(),
-        }
-    }
-
-    fn analysis(&self) -> Option<MapAnalysis<'_>> {
-        self.map.as_ref().map(|m| MapAnalysis { lookup: &m.group, selection: &m.selection })
-    }
+    Ok(MapLookup::boxed(INFO.id, params, true, pipeline, Some(own)))
 }

@@ -16,13 +16,10 @@
 use shadowlab_core::params::ParamDef;
 use shadowlab_core::{EmitterExtent, Light, ParamSet};
 
-use crate::frame::VisibilityLayer;
+use super::map_lookup::MapLookup;
 use crate::kernel;
-use crate::shadowmap::{LightMap, lookup_layout};
-use crate::technique::{
-    FrameContext, MapAnalysis, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats,
-    dispatch_resolve, uniform_entry,
-};
+use crate::shadowmap::lookup_layout;
+use crate::technique::{ShadowTechnique, Shared, TechniqueError, TechniqueInfo, uniform_entry};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "pcss",
@@ -47,15 +44,6 @@ struct PcssUniform {
     params: [f32; 4],
     limits: [f32; 4],
     taps: [[f32; 4]; kernel::MAX_TAPS],
-}
-
-struct Pcss {
-    params: ParamSet,
-    map: Option<LightMap>,
-    pipeline: wgpu::ComputePipeline,
-    group: wgpu::BindGroup,
-    uniform_bytes: u64,
-    triangles: u64,
 }
 
 fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
@@ -101,57 +89,5 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         &[&lookup_layout(shared), &layout(shared)],
         &[],
     );
-    Ok(Box::new(Pcss {
-        params: params.clone(),
-        map: None,
-        pipeline,
-        group,
-        uniform_bytes: buffer.size(),
-        triangles: 0,
-    }))
-}
-
-impl ShadowTechnique for Pcss {
-    fn id(&self) -> &'static str {
-        INFO.id
-    }
-
-    fn params(&self) -> &ParamSet {
-        &self.params
-    }
-
-    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
-        let map = self
-            .map
-            .get_or_insert_with(|| LightMap::new(ctx.shared, ctx.light, &ctx.gpu_scene.bounds, &self.params, true));
-        map.render(ctx);
-        self.triangles = ctx.gpu_scene.triangles;
-        Ok(())
-    }
-
-    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        let Some(map) = &self.map else { return };
-        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(ctx, "pcss", &self.pipeline, &[&group0, &map.group, &self.group]);
-    }
-
-    fn stats(&self) -> TechniqueStats {
-        match &self.map {
-            Some(m) => {
-                let (passes, draws, triangles) = m.counts(self.triangles);
-                TechniqueStats {
-                    memory_bytes: m.bytes() + self.uniform_bytes,
-                    passes: passes + 1,
-                    draws,
-                    triangles,
-                    extra: Vec::new(),
-                }
-            }
-            None => TechniqueStats::default(),
-        }
-    }
-
-    fn analysis(&self) -> Option<MapAnalysis<'_>> {
-        self.map.as_ref().map(|m| MapAnalysis { lookup: &m.group, selection: &m.selection })
-    }
+    Ok(MapLookup::boxed(INFO.id, params, true, pipeline, Some((group, buffer.size()))))
 }

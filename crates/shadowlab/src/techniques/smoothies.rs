@@ -22,7 +22,7 @@ use shadowlab_core::volumes::LightSource;
 use shadowlab_core::{EmitterExtent, Light, ParamSet, Scene, Topology};
 
 use crate::frame::VisibilityLayer;
-use crate::shadowmap::{LightMap, SHADOW_FORMAT, lookup_layout};
+use crate::shadowmap::{LightMap, SHADOW_FORMAT, lookup_layout, matrices_layout};
 use crate::technique::{
     FrameContext, MapAnalysis, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats,
     dispatch_resolve, uniform_entry,
@@ -85,24 +85,6 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
                 },
                 uniform_entry(1, c),
             ],
-        })
-    })
-}
-
-fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
-    shared.layout("smoothie matrices", || {
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("smoothie matrices"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: std::num::NonZeroU64::new(64),
-                },
-                count: None,
-            }],
         })
     })
 }

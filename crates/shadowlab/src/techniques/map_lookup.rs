@@ -1,0 +1,78 @@
+//! The shape shared by `hard`, `pcf`, `pcss` and `blurred`: one hard map from the light's centre
+//! ([`LightMap`]) and one compute pass that looks it up, with an optional bind group of the
+//! technique's own (group 2: a filter kernel, PCSS's taps). The modules differ only in their WGSL
+//! and that group.
+
+use shadowlab_core::ParamSet;
+
+use crate::frame::VisibilityLayer;
+use crate::shadowmap::LightMap;
+use crate::technique::{FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_resolve};
+
+pub(super) struct MapLookup {
+    id: &'static str,
+    params: ParamSet,
+    /// Bilinear comparison taps (2 × 2 PCF) rather than nearest ones.
+    linear: bool,
+    map: Option<LightMap>,
+    pipeline: wgpu::ComputePipeline,
+    /// The technique's group 2 and the bytes its buffers hold.
+    own: Option<(wgpu::BindGroup, u64)>,
+    triangles: u64,
+}
+
+impl MapLookup {
+    pub fn boxed(
+        id: &'static str,
+        params: &ParamSet,
+        linear: bool,
+        pipeline: wgpu::ComputePipeline,
+        own: Option<(wgpu::BindGroup, u64)>,
+    ) -> Box<dyn ShadowTechnique> {
+        Box::new(Self { id, params: params.clone(), linear, map: None, pipeline, own, triangles: 0 })
+    }
+}
+
+impl ShadowTechnique for MapLookup {
+    fn id(&self) -> &'static str {
+        self.id
+    }
+
+    fn params(&self) -> &ParamSet {
+        &self.params
+    }
+
+    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        let (params, linear) = (&self.params, self.linear);
+        let map =
+            self.map.get_or_insert_with(|| LightMap::new(ctx.shared, ctx.light, &ctx.gpu_scene.bounds, params, linear));
+        map.render(ctx);
+        self.triangles = ctx.gpu_scene.triangles;
+        Ok(())
+    }
+
+    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        let Some(map) = &self.map else { return };
+        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        match &self.own {
+            Some((own, _)) => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, &map.group, own]),
+            None => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, &map.group]),
+        }
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        let Some(m) = &self.map else { return TechniqueStats::default() };
+        let (passes, draws, triangles) = m.counts(self.triangles);
+        TechniqueStats {
+            memory_bytes: m.bytes() + self.own.as_ref().map_or(0, |o| o.1),
+            passes: passes + 1,
+            draws,
+            triangles,
+            extra: Vec::new(),
+        }
+    }
+
+    fn analysis(&self) -> Option<MapAnalysis<'_>> {
+        self.map.as_ref().map(|m| MapAnalysis { lookup: &m.group, selection: &m.selection })
+    }
+}

@@ -120,10 +120,7 @@ impl ShadowMapArray {
     /// `layers` layers of `size`², and room for `capacity` views.
     pub fn new(shared: &Shared, size: u32, layers: u32, capacity: u32) -> Self {
         let device = &shared.gpu.device;
-        // wgpu's GL backend picks a texture's GL target from its layer count (1 → 2D, 6 square
-        // layers → cube map), and a 2D-array view of those reads nothing: pad to a true array.
-        let allocated =
-            if shared.gpu.adapter.backend == "gl" && (layers == 1 || layers == 6) { layers + 1 } else { layers };
+        let allocated = padded_layers(layers, shared.gpu.adapter.backend == "gl");
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("shadow maps"),
             size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: allocated },
@@ -230,6 +227,16 @@ impl ShadowMapArray {
         }
         draws
     }
+}
+
+/// The layers to allocate for `layers` maps, so that no backend takes the array for a cube map.
+/// wgpu's GL backend guesses a texture's GL target from its layer count (gfx-rs/wgpu#7428): 1 layer
+/// is a 2D texture, 6 square layers a cube map, more than 6 in multiples of 6 a cube-map array, and
+/// a 2D-array view of any of those reads nothing (every sample's map "lit"). One spare layer
+/// makes them plain arrays. Vulkan keeps the count.
+pub(crate) fn padded_layers(layers: u32, gl: bool) -> u32 {
+    let cube_like = layers == 1 || layers == 6 || (layers > 6 && layers.is_multiple_of(6));
+    if gl && cube_like { layers + 1 } else { layers }
 }
 
 /// Culling for a draw group: closed meshes follow the face mode; open and double-sided ones are
@@ -433,4 +440,21 @@ pub fn single_selection(shared: &Shared) -> wgpu::BindGroup {
         layout: &crate::techniques::selection_layout(shared),
         entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::padded_layers;
+
+    #[test]
+    fn no_gl_array_is_allocated_with_a_cube_like_layer_count() {
+        for layers in 1..=100 {
+            let n = padded_layers(layers, true);
+            assert!(n == layers || n == layers + 1);
+            assert!(n != 1 && n != 6 && (n < 6 || !n.is_multiple_of(6)), "{layers} → {n}");
+            assert_eq!(padded_layers(layers, false), layers, "Vulkan keeps {layers}");
+        }
+        // Plain counts stay as they are on GL too: cascades, samples.
+        assert_eq!([2, 4, 16, 25].map(|l| padded_layers(l, true)), [2, 4, 16, 25]);
+    }
 }

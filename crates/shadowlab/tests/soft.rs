@@ -203,3 +203,26 @@ fn cssm_follows_sampled_on_the_bunny_with_a_fraction_of_the_memory() {
     // views for the cube-fitted middle cascade). At most half.
     assert!(2 * mem < mem_uniform, "{mem} vs {mem_uniform}");
 }
+
+/// The texture-array mode looks up the same maps as accumulation over passes: the results agree
+/// for layer counts that wgpu would take for cube-map arrays (12 single views; 4 samples × 6 cube
+/// faces), which once read as "lit" everywhere.
+#[test]
+fn array_mode_matches_accumulation() {
+    let gpu = gpu();
+    let (scene, _) = penumbra(0.5);
+    let room = load_scene("room").unwrap().scene;
+    let lamp = room.find_light("ceiling lamp").unwrap();
+    let cases = [(&scene, "default", LightId(0), 12), (&room, "default", lamp, 4)];
+    for (scene, view, light, n) in cases {
+        let view = scene.view(view).unwrap().clone();
+        let spec = format!("sampled:samples={n},map_size=256");
+        let accumulated = render(&gpu, scene, &view, 64, &spec, &[light]).visibility(light);
+        let array = render(&gpu, scene, &view, 64, &format!("{spec},mode=array"), &[light]).visibility(light);
+        let shadowed = accumulated.iter().filter(|&&v| v < 0.5).count();
+        assert!(shadowed > 0, "{n} samples: the view holds a shadow");
+        let worst = array.iter().zip(&accumulated).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        // The same comparisons in another order: equal up to float rounding of the sums.
+        assert!(worst < 1e-4, "{n} samples: array and accumulation differ by {worst}");
+    }
+}

@@ -21,8 +21,9 @@ fn vs_main(@location(0) position: vec3<f32>, @location(1) offset: f32) -> Vertex
     return out;
 }
 
-// x: distance from the silhouette; y: the smoothie's reversed-Z depth.
+// x: distance from the silhouette; y: the smoothie's reversed-Z depth (f32 bits: the target is
+// Rg32Uint, renderable everywhere).
 @fragment
-fn fs_main(v: VertexOut) -> @location(0) vec2<f32> {
-    return vec2<f32>(v.offset, v.clip.z);
+fn fs_main(v: VertexOut) -> @location(0) vec2<u32> {
+    return bitcast<vec2<u32>>(vec2<f32>(v.offset, v.clip.z));
 }

@@ -38,7 +38,10 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create,
 };
 
-const BUFFER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
+/// The smoothie buffer's texels: two f32 bit patterns in unsigned integers, because 32-bit float
+/// colour targets are not renderable on every backend (wgpu's GL backend refuses Rg32Float), while
+/// Rg32Uint is, and loses nothing.
+const BUFFER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Uint;
 
 /// The welded topology of every mesh, shared by every light's smoothies.
 struct MeshTopologies(Vec<Topology>);
@@ -77,7 +80,7 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
                     binding: 0,
                     visibility: c,
                     ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        sample_type: wgpu::TextureSampleType::Uint,
                         view_dimension: wgpu::TextureViewDimension::D2Array,
                         multisampled: false,
                     },
@@ -206,12 +209,7 @@ impl Smoothies {
                 size: wgpu::Extent3d {
                     width: size,
                     height: size,
-                    // GL picks 2D or cube targets for 1 or 6 layers (see ShadowMapArray::new).
-                    depth_or_array_layers: if shared.gpu.adapter.backend == "gl" && (layers == 1 || layers == 6) {
-                        layers + 1
-                    } else {
-                        layers
-                    },
+                    depth_or_array_layers: crate::shadowmap::padded_layers(layers, shared.gpu.adapter.backend == "gl"),
                 },
                 mip_level_count: 1,
                 sample_count: 1,

@@ -9,7 +9,8 @@ struct Smoothies {
     params: vec4<f32>,
 };
 
-@group(2) @binding(0) var smoothie_buffer: texture_2d_array<f32>;
+// Texels: the f32 bits of (distance from the silhouette, reversed-Z depth); cleared to zeros.
+@group(2) @binding(0) var smoothie_buffer: texture_2d_array<u32>;
 @group(2) @binding(1) var<uniform> smoothies: Smoothies;
 
 // The smoothie's visibility at mp: its distance from the silhouette over the outer penumbra's
@@ -17,7 +18,7 @@ struct Smoothies {
 fn smoothie_visibility(mp: MapPoint) -> f32 {
     let size = i32(map_params.bias.z);
     let t = clamp(vec2<i32>(floor(mp.uvz.xy * map_params.bias.z)), vec2<i32>(0), vec2<i32>(size - 1));
-    let s = textureLoad(smoothie_buffer, t, i32(mp.layer), 0).xy;
+    let s = bitcast<vec2<f32>>(textureLoad(smoothie_buffer, t, i32(mp.layer), 0).xy);
     // Reversed Z: no smoothie (depth 0), or one at or behind the receiver.
     if (s.y <= mp.uvz.z) {
         return 1.0;

@@ -221,6 +221,28 @@ fn render_reference_and_bench_run() {
     assert!(stdout.contains("shadow") && stdout.contains("×hard"), "{stdout}");
     let b = json(&bench);
     assert_eq!(b["techniques"][0]["time_ratio_over_hard"], 1.0);
+    // `hard` with parameters is the baseline when plain `hard` is not benched.
+    let out = shadowlab(&[
+        "bench",
+        "--scene",
+        "penumbra",
+        "--size",
+        "32x32",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--technique",
+        "pcf",
+        "--technique",
+        "hard:map_size=512",
+        "--json",
+        bench.to_str().unwrap(),
+    ]);
+    ok(&out);
+    let b = json(&bench);
+    assert_eq!(b["techniques"][1]["time_ratio_over_hard"], 1.0);
+    assert!(b["techniques"][0]["time_ratio_over_hard"].as_f64().is_some());
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -33,6 +33,24 @@ pub fn split_distances(near: f32, far: f32, m: usize, lambda: f32, pseudo_near: 
     c
 }
 
+/// Replaces the inner splits `C_1..C_{m−1}` by `fixed[i − 1]` where that is positive: splits placed
+/// by hand, as Azri 2020 §3.2.1 does per scene ("partitioned arbitrarily", NOTES-003 §1.6). The
+/// result stays a partition of the view depth range: every split is clamped into `(near, far)`
+/// and at least its predecessor.
+pub fn fix_splits(splits: &mut [f32], fixed: &[f32]) {
+    let m = splits.len().saturating_sub(1);
+    if m < 2 {
+        return;
+    }
+    let (near, far) = (splits[0], splits[m]);
+    for i in 1..m {
+        if let Some(&d) = fixed.get(i - 1).filter(|d| d.is_finite() && **d > 0.0) {
+            splits[i] = d.clamp(near, far);
+        }
+        splits[i] = splits[i].max(splits[i - 1]).min(far);
+    }
+}
+
 /// The split scheme's λ: `uniform` 0, `log` 1, `practical` the given λ.
 pub fn scheme_lambda(scheme: &str, lambda: f32) -> f32 {
     match scheme {
@@ -539,6 +557,23 @@ fn spot_cascade(
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn fixed_splits_replace_the_scheme_and_stay_ordered() {
+        let mut c = split_distances(0.1, 10.0, 3, 0.5, 0.1, 10.0);
+        let auto = c.clone();
+        fix_splits(&mut c, &[2.0, 0.0]);
+        assert_eq!((c[0], c[1], c[2], c[3]), (0.1, 2.0, auto[2], 10.0));
+        // Out of range, unordered, NaN: clamped into a partition.
+        let mut c = auto.clone();
+        fix_splits(&mut c, &[50.0, 1.0, f32::NAN]);
+        assert_eq!(c, vec![0.1, 10.0, 10.0, 10.0]);
+        let mut c = auto.clone();
+        fix_splits(&mut c, &[f32::NAN, -1.0]);
+        assert_eq!(c, auto);
+        assert!(c.windows(2).all(|w| w[0] <= w[1]));
+    }
+
     use super::*;
 
     fn close(a: &[f32], b: &[f32], tol: f32) -> bool {

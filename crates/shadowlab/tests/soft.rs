@@ -5,7 +5,7 @@ mod common;
 
 use shadowlab_core::scenes::penumbra::PenumbraSetup;
 use shadowlab_core::{LightId, Scene, load_scene};
-use shadowlab_reference::metrics::ErrorStats;
+use shadowlab_reference::metrics::{ErrorStats, image_rmse};
 
 use common::{gpu, reference, render};
 
@@ -160,47 +160,57 @@ fn bunny() -> Scene {
 fn cssm_follows_sampled_on_the_bunny_with_a_fraction_of_the_memory() {
     let gpu = gpu();
     let scene = bunny();
+    let light = LightId(0);
     // Azri's framing: the bunny in the first cascade, the plane running into the others. Front
     // faces with a wider normal offset keep acne off the bunny, so that the comparison measures
     // the penumbrae, not the bias.
     let view = scene.view("azri").unwrap().clone();
     let settings = ",faces=front,normal_offset=1.5";
-    let truth = render(
-        &gpu,
-        &scene,
-        &view,
-        128,
-        &format!("sampled:samples=256,pcf=true,map_size=1024{settings}"),
-        &[LightId(0)],
-    );
-    let t = truth.visibility(LightId(0));
-    let cssm = render(&gpu, &scene, &view, 128, &format!("cssm:counts=fixed{settings}"), &[LightId(0)]);
-    let c = cssm.visibility(LightId(0));
-    let rmse = ErrorStats::compare(&c, &t).rmse();
-    let uniform = render(
-        &gpu,
-        &scene,
-        &view,
-        128,
-        &format!("cssm:samples0=36,samples1=36,samples2=36,size1=1024,size2=1024{settings}"),
-        &[LightId(0)],
-    );
-    let u = uniform.visibility(LightId(0));
-    let rmse_uniform = ErrorStats::compare(&u, &t).rmse();
+    // Azri places the splits by hand, the bunny in the first cascade (Fig. 3.11; NOTES-003 §1.6):
+    // the first split just behind the bunny's box, the second at the geometric mean of that and
+    // the scene's far end (a logarithmic split of what is left).
+    let forward = (view.target - view.position).normalize();
+    let far_depth =
+        |b: shadowlab_core::Aabb| b.corners().iter().map(|&c| (c - view.position).dot(forward)).fold(0.0, f32::max);
+    let (bunny_far, scene_far) = (far_depth(scene.occluder_bounds()), far_depth(scene.bounds()));
+    let split2 = (bunny_far * scene_far).sqrt();
+    let splits = format!(",split1={bunny_far},split2={split2}");
+    let run = |spec: String| render(&gpu, &scene, &view, 128, &format!("{spec}{settings}"), &[light]);
+    let truth = run("sampled:samples=256,pcf=true,map_size=1024".into());
+    let t = truth.visibility(light);
+    let relevant: Vec<bool> = reference(&scene, &truth.surface, light, 1).iter().map(|r| !r.is_nan()).collect();
+    let truth_image = truth.renderer.read_image().unwrap();
+    let vis_rmse = |r: &common::Run| ErrorStats::compare_masked(&r.visibility(light), &t, &relevant).rmse();
+
+    let cssm = run(format!("cssm:counts=fixed{splits}"));
+    let rmse = vis_rmse(&cssm);
+    let image = image_rmse(&cssm.renderer.read_image().unwrap(), &truth_image, Some(&cssm.surface.covered)).unwrap();
+    let sixteen = vis_rmse(&run("sampled:samples=16,pcf=true,map_size=1024".into()));
+    let lambda_splits = vis_rmse(&run("cssm:counts=fixed".into()));
+    let uniform = run(format!("cssm:samples0=36,samples1=36,samples2=36,size1=1024,size2=1024{splits}"));
+    let rmse_uniform = vis_rmse(&uniform);
     let (mem, mem_uniform) =
         (cssm.renderer.shadows.stats().memory_bytes, uniform.renderer.shadows.stats().memory_bytes);
     println!(
-        "cssm 16/9/4 vs sampled(256): RMSE {rmse:.4}; uniform 36 @ 1024: {rmse_uniform:.4}; memory {:.1} vs {:.1} MiB",
+        "cssm 16/9/4 vs sampled(256), splits at {bunny_far:.2} and {split2:.2} m: visibility RMSE {rmse:.4} \
+         (sampled(16) alone {sixteen:.4}; PSSM splits {lambda_splits:.4}; uniform 36 @ 1024 {rmse_uniform:.4}); \
+         image RMSE {image:.4}; memory {:.1} vs {:.1} MiB",
         mem as f64 / 1048576.0,
         mem_uniform as f64 / 1048576.0
     );
-    // Measured 0.020 at 128² (0.026 at 256²; the issue asks 0.01, which 16 samples cannot reach here:
-    // sampled(16) alone is 0.010 from sampled(256)); bound 0.035.
-    assert!(rmse < 0.035, "{rmse}");
-    // Fewer samples cost accuracy: the uniform 36-sample cascades are closer (measured 0.0069).
+    // The issue's bound, in Azri's measure (RMSE of the lit images; Azri 0.0075–0.0091): measured
+    // 0.0059 at 128².
+    assert!(image <= 0.01, "image RMSE {image}");
+    // In visibility over relevant pixels, which weighs errors at grazing light fully, cssm is as
+    // close as its first cascade's 16 samples allow: measured 0.0127 against 0.0115 for sampled(16)
+    // over the whole view (×1.10). Bounds: ×1.25 and 0.016.
+    assert!(rmse < 1.25 * sixteen && rmse < 0.016, "{rmse} vs sampled(16) {sixteen}");
+    // With PSSM's λ = 0.5 the bunny falls in the 9-sample, 512² cascade: measured 0.0260.
+    assert!(rmse < lambda_splits, "{rmse} vs {lambda_splits}");
+    // Fewer samples cost accuracy: the uniform 36-sample cascades are closer (measured 0.0096).
     assert!(rmse_uniform < rmse, "{rmse_uniform} vs {rmse}");
-    // Azri: about 73 MiB against 144 MiB for 36 maps of 1024² (here 74 vs 433 MiB with 6
-    // views for the cube-fitted middle cascade). At most half.
+    // Azri: about 73 MiB against 144 MiB for 36 maps of 1024² (here 73 vs 432 MiB: 36 maps in
+    // each of three cascades). At most half.
     assert!(2 * mem < mem_uniform, "{mem} vs {mem_uniform}");
 }
 

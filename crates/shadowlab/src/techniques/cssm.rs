@@ -7,6 +7,9 @@
 //! pixel is shaded by the cascade of its eye depth, as the average of the cascade's samples with a
 //! 3 × 3 PCF each (Azri Eq. 3.8).
 //!
+//! The splits follow PSSM's practical scheme (`lambda`) unless placed by hand (`split1`…): Azri
+//! places them per scene so that each object falls in the cascade meant for it (NOTES-003 §1.6).
+//!
 //! Beyond the paper:
 //! - `band`: Azri switches cascades hard, which shows as a seam where sample counts change; a band
 //!   at the far end of each cascade (a fraction of its depth range) blends it into the next.
@@ -16,7 +19,9 @@
 //!   ([`shadowlab_core::cascades::samples_per_axis`]): k copies of a hard edge split a penumbra
 //!   into k steps, invisible under the PCF while about 3 pixels wide.
 
-use shadowlab_core::cascades::{adjusted_depth_range, pixel_size, samples_per_axis, split_distances, widest_penumbra};
+use shadowlab_core::cascades::{
+    adjusted_depth_range, fix_splits, pixel_size, samples_per_axis, split_distances, widest_penumbra,
+};
 use shadowlab_core::convex::ConvexBody;
 use shadowlab_core::lightspace::{LightFrusta, focused_directional, focused_perspective};
 use shadowlab_core::params::ParamDef;
@@ -39,6 +44,9 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     params: &[
         ParamDef::int("cascades", 3, 1, MAX_CASCADES as i64, "cascades (view depth splits)"),
         ParamDef::float("lambda", 0.5, 0.0, 1.0, "split scheme: 0 uniform … 1 logarithmic"),
+        ParamDef::float("split1", 0.0, 0.0, 1.0e6, "eye depth where cascade 1 starts (0: from lambda)"),
+        ParamDef::float("split2", 0.0, 0.0, 1.0e6, "eye depth where cascade 2 starts (0: from lambda)"),
+        ParamDef::float("split3", 0.0, 0.0, 1.0e6, "eye depth where cascade 3 starts (0: from lambda)"),
         ParamDef::choice(
             "counts",
             "fixed",
@@ -206,7 +214,9 @@ impl ShadowTechnique for Cssm {
         let bounds = ctx.gpu_scene.bounds;
         let (near, far) = adjusted_depth_range(&view, aspect, &bounds).unwrap_or((view.near, view.far));
         let m = (self.params.int("cascades") as usize).clamp(1, MAX_CASCADES);
-        let splits = split_distances(near, far, m, self.params.float("lambda") as f32, near, far);
+        let mut splits = split_distances(near, far, m, self.params.float("lambda") as f32, near, far);
+        let fixed: Vec<f32> = (1..MAX_CASCADES).map(|i| self.params.float(&format!("split{i}")) as f32).collect();
+        fix_splits(&mut splits, &fixed);
         let counts = self.counts(ctx, &view, &splits);
         let pattern = SamplePattern::parse(self.params.choice("pattern")).unwrap_or(SamplePattern::Grid);
         let accum = &self.accum.as_ref().expect("made above").0;

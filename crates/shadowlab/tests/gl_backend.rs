@@ -28,22 +28,27 @@ fn hard_shadows_render_on_gl() {
 #[test]
 fn shadow_volumes_render_on_gl() {
     let gpu = Gpu::new(BackendChoice::Gl).expect("no GL adapter: install Mesa's GL drivers (libgl1-mesa-dri, libegl1)");
-    let mut scene = load_scene("room").unwrap().scene;
-    scene.scale_emitters(0.0);
-    // Under the table: the near plane cuts volumes, so ZP+ (or z-fail) does the work.
-    let view = scene.view("under_table").unwrap().clone();
-    let light = scene.find_light("ceiling lamp").unwrap();
-    for spec in ["volumes", "volumes:mode=zfail"] {
+    // Under the table: the near plane cuts volumes, so ZP+ (or z-fail) does the work. In a
+    // pillar's shadow: light caps far from the camera, where GL's depth precision is absolute
+    // (z-fail: 45 of 2349 pixels wrong before caps were pushed back by a fixed depth as well).
+    let cases = [("room", "under_table", "ceiling lamp"), ("columns", "pillar_shadow", "lamp 1")];
+    for ((scene_name, view_name, light_name), spec) in
+        cases.iter().flat_map(|c| ["volumes", "volumes:mode=zfail"].map(|s| (*c, s)))
+    {
+        let mut scene = load_scene(scene_name).unwrap().scene;
+        scene.scale_emitters(0.0);
+        let view = scene.view(view_name).unwrap().clone();
+        let light = scene.find_light(light_name).unwrap();
         let run = common::render(&gpu, &scene, &view, 64, spec, &[light]);
         let v = run.visibility(light);
         let r = common::reference(&scene, &run.surface, light, 1);
         let wrong = v.iter().zip(&r).filter(|(a, b)| !b.is_nan() && (*a - *b).abs() > 0.5).count();
         let relevant = r.iter().filter(|b| !b.is_nan()).count();
-        // Measured 0 wrong of 3609 relevant pixels; 1% allows the boundary pixels that the
-        // Vulkan tests except by measuring them.
-        assert!(v.contains(&0.0) && v.contains(&1.0), "{spec}: shadows and light");
-        println!("{spec} on GL: {wrong} of {relevant} relevant pixels wrong");
-        assert!((wrong as f64) < 0.01 * relevant as f64, "{spec}: {wrong} of {relevant}");
+        // Measured 0 wrong of 3609 (table) and 1 of 2349 (pillar) relevant pixels; 1% allows the
+        // boundary pixels that the Vulkan tests except by measuring them.
+        assert!(v.contains(&0.0) && v.contains(&1.0), "{view_name} {spec}: shadows and light");
+        println!("{view_name} {spec} on GL: {wrong} of {relevant} relevant pixels wrong");
+        assert!((wrong as f64) < 0.01 * relevant as f64, "{view_name} {spec}: {wrong} of {relevant}");
     }
 }
 

@@ -13,6 +13,11 @@
 // 1e-5 of the distance, well above f32 round-off of 1e-7), z-fail sees them behind those faces,
 // where they belong: the face is on the boundary of its own volume, and lit.
 const CAP_PUSH: f32 = 0.99999;
+// ... and by at least this much depth: where depth has a fixed absolute precision rather than
+// float precision near 0 (wgpu's GL backend maps it through [-1, 1]: about 2^-24 everywhere), a
+// relative push of far caps is lost in round-off. 2^-21 is 8 such steps and half the volumes'
+// infinity depth (INFINITY_DEPTH = 2^-20), so a pushed cap stays in front of infinity.
+const DEPTH_NUDGE: f32 = 4.76837158203125e-7;
 
 @vertex
 fn copy_vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -46,7 +51,7 @@ fn side_vs(@location(0) v: vec4<f32>) -> @builtin(position) vec4<f32> {
 @vertex
 fn cap_vs(@location(0) v: vec4<f32>) -> @builtin(position) vec4<f32> {
     let c = pass_info.volume_matrix * v;
-    return vec4<f32>(c.xy, c.z * CAP_PUSH, c.w);
+    return vec4<f32>(c.xy, c.z * CAP_PUSH - DEPTH_NUDGE * c.w, c.w);
 }
 
 @vertex
@@ -55,8 +60,8 @@ fn zp_vs(@location(0) v: vec4<f32>) -> @builtin(position) vec4<f32> {
 }
 
 // Receiver cropping (Toromanoff 2005 alg. 12): receivers seen in front mark the stencil's top
-// bit, pulled towards the camera by this factor (relative 1e-5 of the distance) so that they pass
-// the depth test against their own copied depth.
+// bit, pulled towards the camera by this factor (relative 1e-5 of the distance, and at least
+// DEPTH_NUDGE) so that they pass the depth test against their own copied depth.
 const RECEIVER_PULL: f32 = 1.00001;
 
 struct ReceiverIn {
@@ -71,7 +76,7 @@ struct ReceiverIn {
 fn receiver_vs(v: ReceiverIn) -> @builtin(position) vec4<f32> {
     let world = mat4x4<f32>(v.m0, v.m1, v.m2, v.m3) * vec4<f32>(v.position, 1.0);
     let c = pass_info.volume_matrix * world;
-    return vec4<f32>(c.xy, c.z * RECEIVER_PULL, c.w);
+    return vec4<f32>(c.xy, min(c.z * RECEIVER_PULL + DEPTH_NUDGE * c.w, c.w), c.w);
 }
 
 @group(1) @binding(0) var<storage, read_write> fill: array<atomic<u32>>;

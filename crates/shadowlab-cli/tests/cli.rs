@@ -79,6 +79,7 @@ fn compare_writes_every_file_and_key() {
             "wrong_frac",
             "penumbra_rmse",
             "flip_mean",
+            "image_rmse",
             "lights",
             "gpu_ms",
             "cpu_ms",
@@ -86,6 +87,7 @@ fn compare_writes_every_file_and_key() {
         ] {
             assert!(t.get(key).is_some(), "technique {} lacks '{key}'", t["spec"]);
         }
+        assert!(t["image_rmse"].as_f64().is_some_and(|x| (0.0..=1.0).contains(&x)), "{}", t["image_rmse"]);
         assert!(t["gpu_ms"].get("median").is_some() && t["gpu_ms"].get("passes").is_some());
         assert!(t["cpu_ms"]["median"].is_number());
         for l in t["lights"].as_array().unwrap() {
@@ -110,6 +112,9 @@ fn compare_writes_every_file_and_key() {
     // `none` ignores every shadow: it must be the worst.
     let rmse = |i: usize| techniques[i]["rmse"].as_f64().unwrap();
     assert!(rmse(0) > rmse(1) && rmse(0) > rmse(3));
+    // In the lit images too: no shadow at all is further from the reference than soft ones.
+    let image = |i: usize| techniques[i]["image_rmse"].as_f64().unwrap();
+    assert!(image(0) > image(3), "none {} vs sampled {}", image(0), image(3));
     std::fs::remove_dir_all(out_dir).ok();
 }
 

@@ -16,7 +16,7 @@ use shadowlab_core::LightId;
 use shadowlab_reference::images::{
     encode_rgb_png, error_heatmap, visibility_rgb, write_raw_f32, write_rgb_png, write_visibility_png,
 };
-use shadowlab_reference::metrics::{ErrorStats, flip_mean, rmse_between};
+use shadowlab_reference::metrics::{ErrorStats, flip_mean, image_rmse, rmse_between};
 use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference};
 
 use crate::args::{GlobalArgs, SceneArgs, Setup, TechniqueArgs, open_gpu, renderer, slug};
@@ -181,6 +181,8 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             light_images.push((encode_rgb_png(&visibility_rgb(&masked), w, h)?, encode_rgb_png(&heat, w, h)?));
         }
         let flip = flip_mean(&reference_image, &image, w, h);
+        // Azri 2020's measure: the lit images' RMSE in [0, 1], over pixels that hold geometry.
+        let image_error = image_rmse(&image, &reference_image, Some(&surface.covered));
         let s = pooled.summary();
         let stats = m.renderer.shadows.stats();
         entries.push(json!({
@@ -188,7 +190,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "spec": spec.spec,
             "params": spec.params.to_json(),
             "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs, "wrong_frac": s.wrong_frac,
-            "penumbra_rmse": s.penumbra_rmse, "flip_mean": flip,
+            "penumbra_rmse": s.penumbra_rmse, "flip_mean": flip, "image_rmse": image_error,
             "lights": light_entries,
             "gpu_ms": m.timing.gpu_json(),
             "cpu_ms": { "median": m.timing.cpu_median },

@@ -313,6 +313,34 @@ pub fn samples_per_axis(width_px: f32, step_px: f32) -> u32 {
     if k.is_nan() { 2 } else { (k as u32).clamp(2, 5) }
 }
 
+/// The width of `points` seen along `axis` (unit): the largest distance between two of them in the
+/// plane perpendicular to it. A map fitted to the points spans about this much.
+pub fn width_across(points: &[Vec3], axis: Vec3) -> f32 {
+    let axis = axis.normalize_or(Vec3::NEG_Y);
+    let flat: Vec<Vec3> = points.iter().map(|&p| p - axis * p.dot(axis)).collect();
+    let mut widest = 0.0f32;
+    for (i, a) in flat.iter().enumerate() {
+        for b in &flat[i + 1..] {
+            widest = widest.max(a.distance(*b));
+        }
+    }
+    if widest.is_finite() { widest } else { 0.0 }
+}
+
+/// `cssm`'s automatic map size for a cascade: the smallest power of two whose texels, over a map
+/// `width` world units wide, are no larger than `texel` (a fraction of a screen pixel at the
+/// cascade's near depth: the texel-to-pixel match of cascaded shadow maps, Dimitrov 2007), clamped
+/// to `min..=max`. Azri 2020 shrinks far maps by hand (1024/512/128), which suits wide penumbrae
+/// but blurs sharp ones (the sun).
+pub fn map_size_for(width: f32, texel: f32, min: u32, max: u32) -> u32 {
+    let (min, max) = (min.max(1), max.max(min.max(1)));
+    let texels = width / texel;
+    if !texels.is_finite() || texels <= min as f32 {
+        return if texels.is_finite() { min } else { max };
+    }
+    (texels.ceil() as u32).checked_next_power_of_two().unwrap_or(max).clamp(min, max)
+}
+
 /// World size of one pixel at eye depth `depth` for a vertical field of view `fov_y` over `height`
 /// pixels.
 pub fn pixel_size(depth: f32, fov_y: f32, height: u32) -> f32 {
@@ -836,5 +864,21 @@ mod tests {
         assert!((w - 2.0 * 0.25 * (far - 2.0) / 2.0).abs() < 1e-5, "{w}");
         assert_eq!(widest_penumbra(&light, &Aabb::EMPTY, &scene), 0.0);
         assert!((pixel_size(2.0, std::f32::consts::FRAC_PI_2, 100) - 0.04).abs() < 1e-6);
+    }
+
+    #[test]
+    fn automatic_map_sizes_match_texels_to_pixels() {
+        // 6 m across at 2.5 cm pixels: 240 texels → 256².
+        assert_eq!(map_size_for(6.0, 0.025, 128, 1024), 256);
+        assert_eq!(map_size_for(6.0, 0.001, 128, 1024), 1024, "capped");
+        assert_eq!(map_size_for(0.1, 0.025, 128, 1024), 128, "floored");
+        assert_eq!(map_size_for(6.0, 0.0, 128, 1024), 1024, "a zero texel asks for the most");
+        assert_eq!(map_size_for(f32::NAN, 0.01, 128, 1024), 1024);
+        assert_eq!(map_size_for(1.0, 0.01, 128, 100), 128, "max below min");
+        // A unit square seen from above is sqrt(2) across; seen edge-on, 1.
+        let square = [Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)];
+        assert!((width_across(&square, Vec3::NEG_Y) - 2f32.sqrt()).abs() < 1e-6);
+        assert!((width_across(&square, Vec3::X) - 1.0).abs() < 1e-6);
+        assert_eq!(width_across(&[], Vec3::Y), 0.0);
     }
 }

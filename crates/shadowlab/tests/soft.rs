@@ -236,3 +236,51 @@ fn array_mode_matches_accumulation() {
         assert!(worst < 1e-4, "{n} samples: array and accumulation differ by {worst}");
     }
 }
+
+/// A lamp inside the view: no sample view can be fitted to the one cascade's slice, so `cssm` falls
+/// back to `sampled`'s whole-scene cube faces, its samples taking turns in the same six layers. It
+/// then is `sampled` with the same samples, in the values and in the memory.
+#[test]
+fn cssm_falls_back_to_sampled_for_a_lamp_inside_the_view() {
+    let gpu = gpu();
+    let room = load_scene("room").unwrap().scene;
+    let lamp = room.find_light("ceiling lamp").unwrap();
+    let view = room.view("default").unwrap().clone();
+    let cssm = render(&gpu, &room, &view, 64, "cssm:cascades=1,samples0=9,size0=256", &[lamp]);
+    let sampled = render(&gpu, &room, &view, 64, "sampled:samples=9,map_size=256,pcf=true", &[lamp]);
+    let stats = cssm.renderer.shadows.stats();
+    let stat = |key: &str| stats.extra.iter().find(|(k, _)| k == &format!("ceiling lamp: {key}")).map(|e| e.1);
+    assert_eq!(stat("cascade0_fitted"), Some(0.0), "the lamp sees the whole view: {:?}", stats.extra);
+    assert_eq!(stat("cascade0_views_per_sample"), Some(6.0));
+    let (c, s) = (cssm.visibility(lamp), sampled.visibility(lamp));
+    assert!(s.iter().any(|&v| v < 0.5), "the view holds a shadow");
+    let worst = c.iter().zip(&s).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    // The same maps and comparisons, summed in the same order: equal up to float rounding.
+    assert!(worst < 1e-4, "cssm and sampled differ by {worst}");
+    // Six layers of 256² (6 MiB) for all nine samples, not 54.
+    let maps = 6 * 256 * 256 * 4;
+    assert!(stats.memory_bytes < 2 * maps, "{} bytes", stats.memory_bytes);
+}
+
+/// `sizes=auto` sizes each cascade's maps from the pixels they serve: the sun's sharp shadow in the
+/// room's far cascade needs more than Azri's 128².
+#[test]
+fn cssm_automatic_sizes_sharpen_the_sun() {
+    let gpu = gpu();
+    let room = load_scene("room").unwrap().scene;
+    let sun = room.find_light("sun").unwrap();
+    let view = room.view("default").unwrap().clone();
+    let mut rmse = Vec::new();
+    let mut far_size = Vec::new();
+    for spec in ["cssm", "cssm:sizes=auto"] {
+        let run = render(&gpu, &room, &view, 128, spec, &[sun]);
+        let r = reference(&room, &run.surface, sun, 64);
+        rmse.push(ErrorStats::compare(&run.visibility(sun), &r).rmse());
+        let stats = run.renderer.shadows.stats();
+        far_size.push(stats.extra.iter().find(|(k, _)| k == "sun: cascade2_map_size").map(|e| e.1).unwrap());
+    }
+    println!("sun: cssm RMSE {:.4} (far maps {}²), sizes=auto {:.4} ({}²)", rmse[0], far_size[0], rmse[1], far_size[1]);
+    assert!(far_size[1] > far_size[0], "{far_size:?}");
+    // Measured 0.0684 → 0.0345 at 128² (reference 64 samples); bound: at least a quarter less.
+    assert!(rmse[1] < 0.75 * rmse[0], "{rmse:?}");
+}

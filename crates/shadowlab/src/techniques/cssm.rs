@@ -12,7 +12,15 @@
 //!
 //! Beyond the paper:
 //! - `band`: Azri switches cascades hard, which shows as a seam where sample counts change; a band
-//!   at the far end of each cascade (a fraction of its depth range) blends it into the next.
+//!   at the far end of each cascade (a fraction of its depth range) blends it into the next (each
+//!   cascade's sums weighted by the band's ramp, so in proportion to its sample count too).
+//! - `sizes=auto`: each cascade's map size is the smallest power of two with two texels per pixel at
+//!   the cascade's near depth over the slice's width across the light
+//!   ([`shadowlab_core::cascades::map_size_for`]), from 128 up to the largest `sizeN`: Azri's
+//!   hand-shrunk far maps suit wide penumbrae but blur sharp ones (the sun).
+//! - Cascades whose samples cannot be fitted to their slice (a light inside or beside it, as room
+//!   lamps are) fall back to `sampled`'s whole-scene views at the largest cascade size, and their
+//!   samples take turns in the same layers: memory stays at one sample's views.
 //! - `counts=auto`: the samples per axis of cascade c are k = ⌈W_c / 3 px⌉ clamped to 2…5, where W_c
 //!   is the widest penumbra the light can cast in the scene
 //!   ([`shadowlab_core::cascades::widest_penumbra`]) in pixels at the cascade's near depth
@@ -20,7 +28,8 @@
 //!   into k steps, invisible under the PCF while about 3 pixels wide.
 
 use shadowlab_core::cascades::{
-    adjusted_depth_range, fix_splits, pixel_size, samples_per_axis, split_distances, widest_penumbra,
+    adjusted_depth_range, fix_splits, map_size_for, pixel_size, samples_per_axis, split_distances, widest_penumbra,
+    width_across,
 };
 use shadowlab_core::convex::ConvexBody;
 use shadowlab_core::lightspace::{LightFrusta, focused_directional, focused_perspective};
@@ -30,12 +39,21 @@ use shadowlab_core::{Aabb, Light, ParamSet, View};
 
 use super::sampled::{PATTERN, sample_frusta, sample_pipelines};
 use crate::frame::VisibilityLayer;
-use crate::sample_maps::{self, SET_FIRST, SET_PCF, SampleMaps, SetConfig, SetUniform};
+use crate::sample_maps::{self, SET_FIRST, SET_PCF, SET_SHARED_LAYERS, SampleMaps, SetConfig, SetUniform};
 use crate::shadowmap::{CONSTANT_BIAS, FACES, FaceMode, NORMAL_OFFSET, Raster, SLOPE_BIAS};
 use crate::technique::{FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats};
 
 /// Most cascades.
 const MAX_CASCADES: usize = 4;
+
+/// The smallest map `sizes=auto` makes (Azri's far cascades).
+const AUTO_MIN_SIZE: u32 = 128;
+
+/// Texels per screen pixel that `sizes=auto` asks for at a cascade's near depth. Two, because the
+/// 3 × 3 PCF and the normal offset (1.5 texels) spread each texel over its neighbours, and grazing
+/// receivers stretch it: on `room`'s sun (128²) one texel per pixel left RMSE 0.048, two 0.034
+/// (hard 0.036; Azri's fixed 1024/512/128 0.068).
+const AUTO_TEXELS_PER_PIXEL: f32 = 2.0;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "cssm",
@@ -57,6 +75,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::int("samples1", 9, 1, 256, "samples of cascade 1"),
         ParamDef::int("samples2", 4, 1, 256, "samples of cascade 2"),
         ParamDef::int("samples3", 4, 1, 256, "samples of cascade 3"),
+        ParamDef::choice(
+            "sizes",
+            "fixed",
+            &["fixed", "auto"],
+            "map sizes: the sizeN parameters, or texels matched to pixels (at most the largest sizeN)",
+        ),
         ParamDef::int("size0", 1024, 16, 8192, "map size of cascade 0"),
         ParamDef::int("size1", 512, 16, 8192, "map size of cascade 1"),
         ParamDef::int("size2", 128, 16, 8192, "map size of cascade 2"),
@@ -66,7 +90,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
             0.0,
             0.0,
             0.5,
-            "blend band at each cascade's far end, fraction of its depth range (0: hard switch)",
+            "blend band at each cascade's far end, fraction of its depth range (0: hard switch); the cascades blend in proportion to weight × samples",
         ),
         ParamDef::bool("pcf", true, "3×3 PCF on every sample's map (Azri 2020 Eq. 3.8)"),
         PATTERN,
@@ -92,10 +116,19 @@ struct Cssm {
     splits: Vec<f32>,
 }
 
-/// One cascade's samples and maps, kept while its layout (sample count, views per sample) holds.
+/// One cascade's samples and maps, kept while its layout (sample count, views per sample, map size,
+/// array or shared layers) holds.
 struct CascadeMaps {
     set: SampleMaps,
     size: u32,
+}
+
+impl CascadeMaps {
+    /// The lookup dispatches of the cascade: one over the whole array, or one per sample when the
+    /// samples share their layers.
+    fn dispatches(&self) -> u32 {
+        if self.set.array { 1 } else { self.set.samples }
+    }
 }
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
@@ -129,15 +162,15 @@ fn slice_points(view: &View, aspect: f32, near: f32, far: f32, scene: &Aabb) -> 
     points
 }
 
-/// Every sample's view fitted to the slice, or (if any sample cannot be fitted: inside it, or
-/// seeing it too wide) the whole-scene views of `sampled` for all of them.
+/// Every sample's view fitted to the slice (`true`), or (if any sample cannot be fitted: inside
+/// it, or seeing it too wide) the whole-scene views of `sampled` for all of them (`false`).
 fn cascade_frusta(
     light: &Light,
     points: &[EmitterPoint],
     scene: &Aabb,
     slice: &[glam::Vec3],
     size: u32,
-) -> Vec<LightFrusta> {
+) -> (Vec<LightFrusta>, bool) {
     let fitted: Option<Vec<LightFrusta>> = points
         .iter()
         .map(|p| match p.sample {
@@ -149,10 +182,13 @@ fn cascade_frusta(
             }
         })
         .collect();
-    fitted.unwrap_or_else(|| {
-        let samples: Vec<EmitterSample> = points.iter().map(|p| p.sample).collect();
-        sample_frusta(light, &samples, scene, size)
-    })
+    match fitted {
+        Some(views) => (views, true),
+        None => {
+            let samples: Vec<EmitterSample> = points.iter().map(|p| p.sample).collect();
+            (sample_frusta(light, &samples, scene, size), false)
+        }
+    }
 }
 
 impl Cssm {
@@ -170,6 +206,22 @@ impl Cssm {
         } else {
             (0..m).map(|c| self.params.int(&format!("samples{c}")) as u32).collect()
         }
+    }
+
+    /// The set uniforms of cascade c (its depth range and blend bands): one for `samples` maps
+    /// looked up together, or one per sample for maps that share their layers.
+    fn set_uniforms(&self, c: usize, splits: &[f32], samples: u32, faces: u32, array: bool) -> Vec<SetUniform> {
+        let first = self.set_uniform(c, splits, faces);
+        if array {
+            return vec![SetUniform { index: [0, samples, faces, first.index[3]], ..first }];
+        }
+        (0..samples)
+            .map(|i| {
+                let flags = first.index[3] | SET_SHARED_LAYERS;
+                let flags = if i == 0 { flags } else { flags & !SET_FIRST };
+                SetUniform { index: [i, 1, faces, flags], ..first }
+            })
+            .collect()
     }
 
     /// The set uniform of cascade c: its depth range and blend bands.
@@ -220,31 +272,53 @@ impl ShadowTechnique for Cssm {
         let counts = self.counts(ctx, &view, &splits);
         let pattern = SamplePattern::parse(self.params.choice("pattern")).unwrap_or(SamplePattern::Grid);
         let accum = &self.accum.as_ref().expect("made above").0;
+        let largest = (0..m).map(|c| self.params.int(&format!("size{c}")) as u32).max().unwrap_or(1);
         for c in 0..m {
-            let size = self.params.int(&format!("size{c}")) as u32;
             let points = emitter_points_with(ctx.light, counts[c], pattern);
             let slice = slice_points(&view, aspect, splits[c], splits[c + 1], &bounds);
-            let frusta = cascade_frusta(ctx.light, &points, &bounds, &slice, size);
+            let mut size = self.params.int(&format!("size{c}")) as u32;
+            if self.params.choice("sizes") == "auto" {
+                let centroid = slice.iter().copied().sum::<glam::Vec3>() / slice.len().max(1) as f32;
+                let axis = match ctx.light.position() {
+                    Some(p) => centroid - p,
+                    None => ctx.light.direction().unwrap_or(glam::Vec3::NEG_Y),
+                };
+                let texel = pixel_size(splits[c], view.fov_y, ctx.surface.height) / AUTO_TEXELS_PER_PIXEL;
+                size = map_size_for(width_across(&slice, axis), texel, AUTO_MIN_SIZE, largest);
+            }
+            let (mut frusta, fitted) = cascade_frusta(ctx.light, &points, &bounds, &slice, size);
+            // Whole-scene views (a light inside or beside the slice: room lamps) spread each map
+            // over everything, where Azri's smaller far maps assume views fitted to their slice:
+            // those keep the largest cascade size, and their samples take turns in the same
+            // layers (accumulated pass by pass, as `sampled` does), so that memory stays at one
+            // sample's views (up to six cube faces) whatever the count.
+            if !fitted && size < largest {
+                size = largest;
+                frusta = cascade_frusta(ctx.light, &points, &bounds, &slice, size).0;
+            }
+            let array = fitted;
+            let n = points.len() as u32;
             let faces = frusta[0].views.len() as u32;
-            let set = self.set_uniform(c, &splits, faces);
-            let set = SetUniform { index: [0, points.len() as u32, faces, set.index[3]], ..set };
+            let sets = self.set_uniforms(c, &splits, n, faces, array);
             let keep = self
                 .cascades
                 .get(c)
-                .is_some_and(|k| k.size == size && k.set.samples == points.len() as u32 && k.set.faces == faces);
+                .is_some_and(|k| k.size == size && k.set.samples == n && k.set.faces == faces && k.set.array == array);
             if keep {
                 let k = &self.cascades[c];
                 let views: Vec<_> = frusta.iter().flat_map(|f| f.views.iter().copied()).collect();
                 k.set.maps.set_views(&shared.gpu.queue, 0, &views);
-                k.set.write_set(&shared.gpu.queue, 0, &set);
+                for (i, set) in sets.iter().enumerate() {
+                    k.set.write_set(&shared.gpu.queue, i, set);
+                }
             } else {
                 let config = SetConfig {
                     size,
-                    array: true,
+                    array,
                     normal_offset: self.params.float("normal_offset") as f32,
                     constant_bias: self.params.float("constant_bias") as f32,
                 };
-                let maps = SampleMaps::new(shared, INFO.id, &points, &frusta, config, accum, &[set])?;
+                let maps = SampleMaps::new(shared, INFO.id, &points, &frusta, config, accum, &sets)?;
                 let made = CascadeMaps { set: maps, size };
                 if c < self.cascades.len() {
                     self.cascades[c] = made;
@@ -254,12 +328,6 @@ impl ShadowTechnique for Cssm {
             }
         }
         self.cascades.truncate(m);
-        self.draws = 0;
-        for k in &self.cascades {
-            for i in 0..k.set.samples {
-                self.draws += k.set.render_sample(ctx, i, &self.raster);
-            }
-        }
         self.splits = splits;
         self.triangles = ctx.gpu_scene.triangles;
         Ok(())
@@ -270,8 +338,21 @@ impl ShadowTechnique for Cssm {
             return;
         }
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        // Array cascades: every map, then one lookup. Shared layers: each sample's maps, then its
+        // lookup, in turn. Cascade 0's first lookup starts the sums.
+        self.draws = 0;
         for k in &self.cascades {
-            k.set.dispatch(ctx, "cssm cascade", &self.accumulate, &group0, 0);
+            if k.set.array {
+                for i in 0..k.set.samples {
+                    self.draws += k.set.render_sample(ctx, i, &self.raster);
+                }
+                k.set.dispatch(ctx, "cssm cascade", &self.accumulate, &group0, 0);
+            } else {
+                for i in 0..k.set.samples {
+                    self.draws += k.set.render_sample(ctx, i, &self.raster);
+                    k.set.dispatch(ctx, "cssm cascade sample", &self.accumulate, &group0, i as usize);
+                }
+            }
         }
         self.cascades[0].set.dispatch(ctx, "cssm finish", &self.finish, &group0, 0);
     }
@@ -286,6 +367,7 @@ impl ShadowTechnique for Cssm {
             extra.push((format!("cascade{c}_samples"), f64::from(k.set.samples)));
             extra.push((format!("cascade{c}_map_size"), f64::from(k.size)));
             extra.push((format!("cascade{c}_views_per_sample"), f64::from(k.set.faces)));
+            extra.push((format!("cascade{c}_fitted"), if k.set.array { 1.0 } else { 0.0 }));
         }
         for (i, d) in self.splits.iter().enumerate() {
             extra.push((format!("split{i}"), f64::from(*d)));
@@ -293,7 +375,7 @@ impl ShadowTechnique for Cssm {
         TechniqueStats {
             memory_bytes: self.cascades.iter().map(|k| k.set.bytes()).sum::<u64>()
                 + self.accum.as_ref().map_or(0, |a| a.0.size()),
-            passes: views + self.cascades.len() as u32 + 1,
+            passes: views + self.cascades.iter().map(CascadeMaps::dispatches).sum::<u32>() + 1,
             draws: self.draws,
             triangles: self.triangles * u64::from(views),
             extra,

@@ -1,6 +1,8 @@
-// `cssm`: cascaded soft shadow maps (Azri 2020). One pass per cascade: the pixels whose eye depth
-// falls in the cascade (or its blend bands) average the cascade's samples and add the result,
-// weighted, to their sums.
+// `cssm`: cascaded soft shadow maps (Azri 2020). One pass per cascade (or per sample, where the
+// cascade's samples share their layers): the pixels whose eye depth falls in the cascade (or its
+// blend bands) add the samples' sums (w·V, w), times the cascade's weight there, to their own; V
+// is their ratio. Within a cascade that is the weighted average of its samples; across a band the
+// cascades blend in proportion to weight × samples.
 
 // #include "samples.wgsl"
 
@@ -14,8 +16,7 @@ fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     if (s.relevant) {
         let weight = set_weight(view_depth(camera, s.p));
         if (weight > 0.0) {
-            let set_sum = set_sums(s);
-            sums = vec2<f32>(weight * select(0.0, set_sum.x / set_sum.y, set_sum.y > 0.0), weight);
+            sums = weight * set_sums(s);
         }
     }
     accumulate_sums(id.xy, sums);

@@ -315,6 +315,7 @@ fn report_html(
                 t["wrong_frac"].as_f64().map(|x| format!("{:.2}%", 100.0 * x)).unwrap_or_default(),
                 fmt(&t["penumbra_rmse"], 4),
                 fmt(&t["flip_mean"], 4),
+                fmt(&t["image_rmse"], 4),
                 fmt(&t["gpu_ms"]["median"], 2),
                 fmt(&t["time_ratio_over_hard"], 2),
                 format!(
@@ -338,6 +339,7 @@ fn report_html(
             "wrong",
             "penumbra RMSE",
             "FLIP",
+            "image RMSE",
             "GPU ms",
             "× hard",
             "G-buf / shadow / vis / light ms",
@@ -407,7 +409,7 @@ fn report_html(
 <h1>shadowlab compare: {scene} / {view}</h1>\
 <p>{w}×{h} pixels · lights: {lights} · adapter: {adapter} ({backend}, {dtype}) · reference: {samples} samples, seed {seed}, {secs:.1} s · noise floor RMSE {noise:.4}</p>\
 <h2>Which technique, at what cost, how wrong</h2>{table}\
-<p class=\"note\">Errors over relevant pixels (DESIGN.md §6): wrong = |V − V<sub>ref</sub>| &gt; 0.1; penumbra RMSE over pixels where V or V<sub>ref</sub> is in (0.02, 0.98); FLIP of the final image against the image lit with the reference visibility. Times are medians of {frames} frames after warm-up; ratios over <code>hard</code> hold across machines, absolute times do not (a CPU adapter is not a GPU).</p>\
+<p class=\"note\">Errors over relevant pixels (DESIGN.md §6): wrong = |V − V<sub>ref</sub>| &gt; 0.1; penumbra RMSE over pixels where V or V<sub>ref</sub> is in (0.02, 0.98); FLIP and image RMSE (Azri 2020's measure, over pixels with geometry) of the final image against the image lit with the reference visibility. Times are medians of {frames} frames after warm-up; ratios over <code>hard</code> hold across machines, absolute times do not (a CPU adapter is not a GPU).</p>\
 <h2>Quality against time</h2>{svg}\
 <h2>Images</h2>{images}\
 <h2>Visibility and error per light</h2><p class=\"note\">Error heatmaps: white exact, blue too dark (V &lt; V<sub>ref</sub>), red too bright; grey not relevant. Colour ∝ √|Δ|.</p>{per_light}\

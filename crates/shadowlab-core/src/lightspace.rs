@@ -5,7 +5,7 @@
 //! (the float's dense values near 0 meet the projection's crowding at the far end), which is what
 //! long light frusta need. A stored depth is *closer to the light* when it is *larger*.
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
 use crate::bounds::Aabb;
 use crate::light::{Light, LightKind};
@@ -33,6 +33,20 @@ pub fn orthographic_reversed(l: f32, r: f32, b: f32, t: f32, near: f32, far: f32
         Vec4::new(0.0, 2.0 / h, 0.0, 0.0),
         Vec4::new(0.0, 0.0, 1.0 / d, 0.0),
         Vec4::new(-(r + l) / w, -(t + b) / h, far / d, 1.0),
+    )
+}
+
+/// Reversed-Z perspective projection of the off-axis window `[l, r] × [b, t]` (tangents: view-space
+/// x/−z and y/−z) between distances `near` and `far`: `perspective_reversed` with its image window
+/// moved off the axis (OpenGL's `glFrustum`, in tangent units).
+pub fn off_axis_reversed(l: f32, r: f32, b: f32, t: f32, near: f32, far: f32) -> Mat4 {
+    let a = near / (far - near);
+    let c = near * far / (far - near);
+    Mat4::from_cols(
+        Vec4::new(2.0 / (r - l), 0.0, 0.0, 0.0),
+        Vec4::new(0.0, 2.0 / (t - b), 0.0, 0.0),
+        Vec4::new((r + l) / (r - l), (t + b) / (t - b), a, -1.0),
+        Vec4::new(0.0, 0.0, c, 0.0),
     )
 }
 
@@ -260,9 +274,78 @@ pub fn focused_perspective(eye: Vec3, points: &[Vec3], scene: &Aabb, map_size: u
     Some(ShadowView::perspective(eye, axis, fov, near, far, map_size))
 }
 
+/// A square window holding `[lo, hi]` on a fixed image plane, stabilised against camera motion (the
+/// approach of Stingl 2011 §3.5 for cascades, here on each sample's image plane): its width rounded
+/// up to eighths of an octave (with two texels of margin a side), its centre snapped to whole
+/// texels. Static geometry then keeps its texels while the fitted points move, until the width
+/// steps. Returns `(l, r, b, t)`.
+pub fn stable_window(lo: Vec2, hi: Vec2, map_size: u32) -> (f32, f32, f32, f32) {
+    let size = map_size.max(8) as f32;
+    let want = (hi.x - lo.x).max(hi.y - lo.y).max(1e-6) * (1.0 + 4.0 / size);
+    let width = ((want.log2() * 8.0).ceil() / 8.0).exp2();
+    let texel = width / size;
+    let centre = (0.5 * (lo + hi) / texel).round() * texel;
+    (centre.x - 0.5 * width, centre.x + 0.5 * width, centre.y - 0.5 * width, centre.y + 0.5 * width)
+}
+
+/// [`focused_perspective`] stabilised: the view looks along the direction to the points' centroid
+/// rounded to a grid of directions (components in sixteenths, about 4°), so it turns only in rare
+/// steps, and the points' window on that fixed image plane is off-axis and texel-snapped
+/// ([`stable_window`]). `None` where [`focused_perspective`] gives none, or a window reaches more
+/// than 60° off the axis.
+pub fn focused_perspective_stable(eye: Vec3, points: &[Vec3], scene: &Aabb, map_size: u32) -> Option<ShadowView> {
+    focused_perspective(eye, points, scene, map_size)?;
+    let centroid = points.iter().copied().sum::<Vec3>() / points.len() as f32;
+    let axis = ((centroid - eye).try_normalize()? * 16.0).round().try_normalize()?;
+    let view = look_along(eye, axis);
+    let (mut lo, mut hi, mut far) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY), 0.0f32);
+    for &p in points {
+        let v = view.transform_point3(p);
+        let depth = -v.z;
+        if depth <= 1e-6 * (1.0 + v.truncate().length()) {
+            return None;
+        }
+        let s = v.truncate() / depth;
+        lo = lo.min(s);
+        hi = hi.max(s);
+        far = far.max(depth);
+    }
+    let (l, r, b, t) = stable_window(lo, hi, map_size);
+    let reach = l.abs().max(r.abs()).max(b.abs()).max(t.abs());
+    if reach.is_nan() || reach > 60f32.to_radians().tan() {
+        return None;
+    }
+    let far = far * 1.01;
+    let diag = scene.diagonal().max(1e-3);
+    let box_near = scene.corners().iter().map(|&c| (c - eye).dot(axis)).fold(f32::INFINITY, f32::min);
+    let near = (0.99 * box_near).max(NEAR_FRACTION * diag).min(0.5 * far);
+    let projection = off_axis_reversed(l, r, b, t, near, far);
+    Some(ShadowView {
+        view,
+        projection,
+        view_projection: projection * view,
+        eye,
+        axis,
+        orthographic: false,
+        near,
+        far,
+        texel_scale: (r - l) / map_size.max(1) as f32,
+    })
+}
+
 /// An orthographic view along `direction` whose map covers `points` across the light and the whole
 /// scene along it (casters anywhere up the light's path).
 pub fn focused_directional(direction: Vec3, scene: &Aabb, points: &[Vec3], map_size: u32) -> ShadowView {
+    focused_directional_with(direction, scene, points, map_size, false)
+}
+
+/// [`focused_directional`] with the window stabilised ([`stable_window`]): the view's frame is
+/// fixed by the scene and the direction, so only the window moves, by whole texels.
+pub fn focused_directional_stable(direction: Vec3, scene: &Aabb, points: &[Vec3], map_size: u32) -> ShadowView {
+    focused_directional_with(direction, scene, points, map_size, true)
+}
+
+fn focused_directional_with(direction: Vec3, scene: &Aabb, points: &[Vec3], map_size: u32, stable: bool) -> ShadowView {
     let dir = direction.normalize_or(Vec3::NEG_Y);
     let scene_radius = 0.5 * scene.diagonal().max(1e-3);
     let eye = scene.center() - dir * (scene_radius * 1.1);
@@ -286,7 +369,11 @@ pub fn focused_directional(direction: Vec3, scene: &Aabb, points: &[Vec3], map_s
     let (near, far) = ((-hi.z - 0.01 * scene_radius).max(0.0), -lo.z + 0.01 * scene_radius);
     let side = (across_hi.x - across_lo.x).max(across_hi.y - across_lo.y).max(1e-4);
     let pad = 2.0 * side / map_size.max(8) as f32;
-    let (l, r, b, t) = (across_lo.x - pad, across_hi.x + pad, across_lo.y - pad, across_hi.y + pad);
+    let (l, r, b, t) = if stable {
+        stable_window(across_lo.truncate(), across_hi.truncate(), map_size)
+    } else {
+        (across_lo.x - pad, across_hi.x + pad, across_lo.y - pad, across_hi.y + pad)
+    };
     let projection = orthographic_reversed(l, r, b, t, near, far);
     ShadowView {
         view,
@@ -325,6 +412,59 @@ pub fn frame(axis: Vec3) -> (Vec3, Vec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_centred_off_axis_window_is_the_symmetric_perspective() {
+        let t = 0.7f32;
+        let a = off_axis_reversed(-t, t, -t, t, 0.1, 20.0);
+        let b = perspective_reversed(2.0 * t.atan(), 1.0, 0.1, 20.0);
+        assert!(a.abs_diff_eq(b, 1e-6), "{a:?} vs {b:?}");
+    }
+
+    /// Stabilised fitted views move by whole texels and keep their width while the fitted points
+    /// move a little: a static point keeps its position within its texel.
+    #[test]
+    fn stabilised_fitted_views_move_by_whole_texels() {
+        let scene = Aabb::new(Vec3::new(-3.0, 0.0, -3.0), Vec3::new(3.0, 2.0, 3.0));
+        let slice = |dx: f32| -> Vec<Vec3> {
+            [(-1.0, -0.5), (1.2, -0.4), (1.1, 1.3), (-0.9, 1.0)]
+                .iter()
+                .flat_map(|&(x, z)| [Vec3::new(x + dx, 0.0, z), Vec3::new(x + dx, 1.0, z)])
+                .collect()
+        };
+        let size = 512;
+        let stat = Vec3::new(0.3, 0.2, 0.4);
+        let eye = Vec3::new(0.5, 3.5, 0.2);
+        let views = |dx: f32| {
+            (
+                focused_perspective_stable(eye, &slice(dx), &scene, size).expect("fits"),
+                focused_directional_stable(Vec3::new(0.3, -1.0, 0.2), &scene, &slice(dx), size),
+            )
+        };
+        let (p0, d0) = views(0.0);
+        for k in 1..20 {
+            let (p, d) = views(0.002 * k as f32);
+            for (a, b) in [(&p0, &p), (&d0, &d)] {
+                assert_eq!(a.texel_scale, b.texel_scale, "step {k}: the width holds");
+                let shift = (b.project(stat) - a.project(stat)).truncate() * size as f32;
+                assert!((shift - shift.round()).abs().max_element() < 2e-3, "step {k}: {shift}");
+            }
+            // Every fitted point stays on the map.
+            for q in slice(0.002 * k as f32) {
+                for v in [&p, &d] {
+                    let uvz = v.project(q);
+                    assert!(uvz.x > 0.0 && uvz.x < 1.0 && uvz.y > 0.0 && uvz.y < 1.0, "{q} → {uvz}");
+                }
+            }
+        }
+        // The unstabilised view follows the points continuously: the static point slides.
+        let (a, b) = (
+            focused_perspective(eye, &slice(0.0), &scene, size).unwrap(),
+            focused_perspective(eye, &slice(0.01), &scene, size).unwrap(),
+        );
+        let shift = (b.project(stat) - a.project(stat)).truncate() * size as f32;
+        assert!((shift - shift.round()).abs().max_element() > 1e-2, "{shift}");
+    }
 
     #[test]
     fn reversed_z_maps_near_to_one_far_to_zero() {

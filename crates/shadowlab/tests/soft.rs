@@ -9,8 +9,15 @@ use shadowlab_reference::metrics::{ErrorStats, image_rmse};
 
 use common::{gpu, reference, render};
 
-const SOFT: &[&str] =
-    &["pcss", "blurred", "smoothies", "sampled:samples=16", "sampled:samples=16,mode=array,pcf=true", "cssm"];
+const SOFT: &[&str] = &[
+    "pcss",
+    "blurred",
+    "smoothies",
+    "sampled:samples=16",
+    "sampled:samples=16,mode=array,pcf=true",
+    "cssm",
+    "cssm:stabilize=true,sizes=auto,counts=auto",
+];
 
 fn penumbra(light_size: f32) -> (Scene, PenumbraSetup) {
     let spec = format!("penumbra:light_size={light_size}");

@@ -18,6 +18,9 @@
 //!   the cascade's near depth over the slice's width across the light
 //!   ([`shadowlab_core::cascades::map_size_for`]), from 128 up to the largest `sizeN`: Azri's
 //!   hand-shrunk far maps suit wide penumbrae but blur sharp ones (the sun).
+//! - `stabilize`: the fitted views jitter as the camera moves their slices, which shows as flicker;
+//!   stabilised views look along quantised directions through texel-snapped off-axis windows of
+//!   quantised width ([`shadowlab_core::lightspace::focused_perspective_stable`]).
 //! - Cascades whose samples cannot be fitted to their slice (a light inside or beside it, as room
 //!   lamps are) fall back to `sampled`'s whole-scene views at the largest cascade size, and their
 //!   samples take turns in the same layers: memory stays at one sample's views.
@@ -32,7 +35,9 @@ use shadowlab_core::cascades::{
     width_across,
 };
 use shadowlab_core::convex::ConvexBody;
-use shadowlab_core::lightspace::{LightFrusta, focused_directional, focused_perspective};
+use shadowlab_core::lightspace::{
+    LightFrusta, focused_directional, focused_directional_stable, focused_perspective, focused_perspective_stable,
+};
 use shadowlab_core::params::ParamDef;
 use shadowlab_core::sampling::{EmitterPoint, EmitterSample, SamplePattern, emitter_points_with};
 use shadowlab_core::{Aabb, Light, ParamSet, View};
@@ -93,6 +98,11 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
             "blend band at each cascade's far end, fraction of its depth range (0: hard switch); the cascades blend in proportion to weight × samples",
         ),
         ParamDef::bool("pcf", true, "3×3 PCF on every sample's map (Azri 2020 Eq. 3.8)"),
+        ParamDef::bool(
+            "stabilize",
+            false,
+            "texel-snapped sample views with quantised widths and directions, against flicker",
+        ),
         PATTERN,
         FACES,
         SLOPE_BIAS,
@@ -170,16 +180,18 @@ fn cascade_frusta(
     scene: &Aabb,
     slice: &[glam::Vec3],
     size: u32,
+    stable: bool,
 ) -> (Vec<LightFrusta>, bool) {
     let fitted: Option<Vec<LightFrusta>> = points
         .iter()
-        .map(|p| match p.sample {
-            EmitterSample::Point(q) => {
-                focused_perspective(q, slice, scene, size).map(|v| LightFrusta { views: vec![v], cube: false })
-            }
-            EmitterSample::Direction(d) => {
-                Some(LightFrusta { views: vec![focused_directional(-d, scene, slice, size)], cube: false })
-            }
+        .map(|p| {
+            let view = match (p.sample, stable) {
+                (EmitterSample::Point(q), false) => focused_perspective(q, slice, scene, size),
+                (EmitterSample::Point(q), true) => focused_perspective_stable(q, slice, scene, size),
+                (EmitterSample::Direction(d), false) => Some(focused_directional(-d, scene, slice, size)),
+                (EmitterSample::Direction(d), true) => Some(focused_directional_stable(-d, scene, slice, size)),
+            };
+            view.map(|v| LightFrusta { views: vec![v], cube: false })
         })
         .collect();
     match fitted {
@@ -286,7 +298,8 @@ impl ShadowTechnique for Cssm {
                 let texel = pixel_size(splits[c], view.fov_y, ctx.surface.height) / AUTO_TEXELS_PER_PIXEL;
                 size = map_size_for(width_across(&slice, axis), texel, AUTO_MIN_SIZE, largest);
             }
-            let (mut frusta, fitted) = cascade_frusta(ctx.light, &points, &bounds, &slice, size);
+            let stable = self.params.bool("stabilize");
+            let (mut frusta, fitted) = cascade_frusta(ctx.light, &points, &bounds, &slice, size, stable);
             // Whole-scene views (a light inside or beside the slice: room lamps) spread each map
             // over everything, where Azri's smaller far maps assume views fitted to their slice:
             // those keep the largest cascade size, and their samples take turns in the same
@@ -294,7 +307,7 @@ impl ShadowTechnique for Cssm {
             // sample's views (up to six cube faces) whatever the count.
             if !fitted && size < largest {
                 size = largest;
-                frusta = cascade_frusta(ctx.light, &points, &bounds, &slice, size).0;
+                frusta = cascade_frusta(ctx.light, &points, &bounds, &slice, size, stable).0;
             }
             let array = fitted;
             let n = points.len() as u32;

@@ -206,46 +206,20 @@ fn render_reference_and_bench_run() {
         assert!(refdir.join(f).is_file(), "missing {f}");
     }
     let bench = dir.join("bench.json");
-    let out = shadowlab(&[
-        "bench",
-        "--scene",
-        "penumbra",
-        "--size",
-        "32x32",
-        "--frames",
-        "2",
-        "--warmup",
-        "0",
-        "--techniques",
-        "hard,pcf",
-        "--json",
-        bench.to_str().unwrap(),
-    ]);
-    ok(&out);
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    // `bench` on the penumbra at 32², two frames, with `techniques` flags; its stdout and JSON.
+    let run_bench = |techniques: &[&str]| {
+        let mut args = vec!["bench", "--scene", "penumbra", "--size", "32x32", "--frames", "2", "--warmup", "0"];
+        args.extend_from_slice(techniques);
+        args.extend(["--json", bench.to_str().unwrap()]);
+        let out = shadowlab(&args);
+        ok(&out);
+        (String::from_utf8_lossy(&out.stdout).into_owned(), json(&bench))
+    };
+    let (stdout, b) = run_bench(&["--techniques", "hard,pcf"]);
     assert!(stdout.contains("shadow") && stdout.contains("×hard"), "{stdout}");
-    let b = json(&bench);
     assert_eq!(b["techniques"][0]["time_ratio_over_hard"], 1.0);
     // `hard` with parameters is the baseline when plain `hard` is not benched.
-    let out = shadowlab(&[
-        "bench",
-        "--scene",
-        "penumbra",
-        "--size",
-        "32x32",
-        "--frames",
-        "1",
-        "--warmup",
-        "0",
-        "--technique",
-        "pcf",
-        "--technique",
-        "hard:map_size=512",
-        "--json",
-        bench.to_str().unwrap(),
-    ]);
-    ok(&out);
-    let b = json(&bench);
+    let (_, b) = run_bench(&["--technique", "pcf", "--technique", "hard:map_size=512"]);
     assert_eq!(b["techniques"][1]["time_ratio_over_hard"], 1.0);
     assert!(b["techniques"][0]["time_ratio_over_hard"].as_f64().is_some());
     std::fs::remove_dir_all(dir).ok();

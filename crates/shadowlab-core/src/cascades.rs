@@ -585,6 +585,7 @@ fn spot_cascade(
 
 #[cfg(test)]
 mod tests {
+    use super::*;
 
     #[test]
     fn fixed_splits_replace_the_scheme_and_stay_ordered() {
@@ -601,8 +602,6 @@ mod tests {
         assert_eq!(c, auto);
         assert!(c.windows(2).all(|w| w[0] <= w[1]));
     }
-
-    use super::*;
 
     fn close(a: &[f32], b: &[f32], tol: f32) -> bool {
         a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol * y.abs().max(1.0))

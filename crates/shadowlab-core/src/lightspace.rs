@@ -77,8 +77,28 @@ pub struct ShadowView {
 
 impl ShadowView {
     pub fn perspective(eye: Vec3, axis: Vec3, fov: f32, near: f32, far: f32, map_size: u32) -> Self {
+        let t = (0.5 * fov).tan();
+        Self::perspective_with(eye, axis, perspective_reversed(fov, 1.0, near, far), near, far, 2.0 * t, map_size)
+    }
+
+    /// A perspective view whose square image window `[l, r] × [b, t]` (tangents) lies off the axis
+    /// ([`off_axis_reversed`]).
+    pub fn off_axis(eye: Vec3, axis: Vec3, window: [f32; 4], near: f32, far: f32, map_size: u32) -> Self {
+        let [l, r, b, t] = window;
+        Self::perspective_with(eye, axis, off_axis_reversed(l, r, b, t, near, far), near, far, r - l, map_size)
+    }
+
+    /// `width`: the image window's width in tangent units (texels per unit of distance × size).
+    fn perspective_with(
+        eye: Vec3,
+        axis: Vec3,
+        projection: Mat4,
+        near: f32,
+        far: f32,
+        width: f32,
+        map_size: u32,
+    ) -> Self {
         let view = look_along(eye, axis);
-        let projection = perspective_reversed(fov, 1.0, near, far);
         Self {
             view,
             projection,
@@ -88,7 +108,7 @@ impl ShadowView {
             orthographic: false,
             near,
             far,
-            texel_scale: 2.0 * (0.5 * fov).tan() / map_size.max(1) as f32,
+            texel_scale: width / map_size.max(1) as f32,
         }
     }
 
@@ -291,10 +311,12 @@ pub fn stable_window(lo: Vec2, hi: Vec2, map_size: u32) -> (f32, f32, f32, f32) 
 /// [`focused_perspective`] stabilised: the view looks along the direction to the points' centroid
 /// rounded to a grid of directions (components in sixteenths, about 4°), so it turns only in rare
 /// steps, and the points' window on that fixed image plane is off-axis and texel-snapped
-/// ([`stable_window`]). `None` where [`focused_perspective`] gives none, or a window reaches more
-/// than 60° off the axis.
+/// ([`stable_window`]). `None` when a point lies beside or behind the eye, or the window reaches
+/// more than 60° off the axis (as [`focused_perspective`]'s cone may not).
 pub fn focused_perspective_stable(eye: Vec3, points: &[Vec3], scene: &Aabb, map_size: u32) -> Option<ShadowView> {
-    focused_perspective(eye, points, scene, map_size)?;
+    if points.is_empty() {
+        return None;
+    }
     let centroid = points.iter().copied().sum::<Vec3>() / points.len() as f32;
     let axis = ((centroid - eye).try_normalize()? * 16.0).round().try_normalize()?;
     let view = look_along(eye, axis);
@@ -319,18 +341,7 @@ pub fn focused_perspective_stable(eye: Vec3, points: &[Vec3], scene: &Aabb, map_
     let diag = scene.diagonal().max(1e-3);
     let box_near = scene.corners().iter().map(|&c| (c - eye).dot(axis)).fold(f32::INFINITY, f32::min);
     let near = (0.99 * box_near).max(NEAR_FRACTION * diag).min(0.5 * far);
-    let projection = off_axis_reversed(l, r, b, t, near, far);
-    Some(ShadowView {
-        view,
-        projection,
-        view_projection: projection * view,
-        eye,
-        axis,
-        orthographic: false,
-        near,
-        far,
-        texel_scale: (r - l) / map_size.max(1) as f32,
-    })
+    Some(ShadowView::off_axis(eye, axis, [l, r, b, t], near, far, map_size))
 }
 
 /// An orthographic view along `direction` whose map covers `points` across the light and the whole
@@ -447,6 +458,8 @@ mod tests {
             for (a, b) in [(&p0, &p), (&d0, &d)] {
                 assert_eq!(a.texel_scale, b.texel_scale, "step {k}: the width holds");
                 let shift = (b.project(stat) - a.project(stat)).truncate() * size as f32;
+                // Whole texels up to f32 round-off of the projection (texel coordinates near 256
+                // carry about 3e-5); 2e-3 leaves room, far below the sliding view's > 1e-2 below.
                 assert!((shift - shift.round()).abs().max_element() < 2e-3, "step {k}: {shift}");
             }
             // Every fitted point stays on the map.

@@ -184,19 +184,19 @@ pub fn flip_mean(reference_rgb: &[u8], test_rgb: &[u8], width: u32, height: u32)
 
 #[cfg(test)]
 mod tests {
+    use super::*;
 
     #[test]
     fn image_rmse_counts_masked_channels_in_unit_range() {
         let a = [0u8, 0, 0, 255, 255, 255];
         let b = [0u8, 0, 0, 0, 0, 0];
         // One of two pixels fully wrong: sqrt(3 / 6).
-        assert!((super::image_rmse(&a, &b, None).unwrap() - 0.5f64.sqrt()).abs() < 1e-12);
-        assert_eq!(super::image_rmse(&a, &b, Some(&[true, false])), Some(0.0));
-        assert_eq!(super::image_rmse(&a, &b, Some(&[false, false])), None);
-        assert_eq!(super::image_rmse(&a, &b[..3], None), None);
-        assert_eq!(super::image_rmse(&a, &b, Some(&[true])), None);
+        assert!((image_rmse(&a, &b, None).unwrap() - 0.5f64.sqrt()).abs() < 1e-12);
+        assert_eq!(image_rmse(&a, &b, Some(&[true, false])), Some(0.0));
+        assert_eq!(image_rmse(&a, &b, Some(&[false, false])), None);
+        assert_eq!(image_rmse(&a, &b[..3], None), None);
+        assert_eq!(image_rmse(&a, &b, Some(&[true])), None);
     }
-    use super::*;
 
     #[test]
     fn metrics_by_hand() {

@@ -47,12 +47,6 @@ fn all_lights(scene: &Scene) -> Vec<LightId> {
 }
 
 /// The extra statistic `key` of light `name` (`"lamp 1: zfail_fallbacks"`).
-fn stat(run: &Run, name: &str, key: &str) -> f64 {
-    let stats = run.renderer.shadows.stats();
-    let full = format!("{name}: {key}");
-    stats.extra.iter().find(|(k, _)| *k == full).map(|(_, v)| *v).unwrap_or_else(|| panic!("no stat {full}"))
-}
-
 fn hard_scene(name: &str) -> Scene {
     let mut scene = load_scene(name).unwrap().scene;
     scene.scale_emitters(0.0);
@@ -113,7 +107,7 @@ fn camera_inside_volumes_breaks_zpass_but_not_auto_zfail_or_zp_plus() {
             assert!(wrong <= EXACT, "{scene_name}/{view} {spec}: wrong_frac {wrong}");
         }
         let auto = render(&gpu, &scene, &v, SIZE, "volumes", &[light]);
-        assert_eq!(stat(&auto, name, "method_zpplus"), 1.0, "auto starts the count with ZP+ inside a volume");
+        assert_eq!(auto.stat(name, "method_zpplus"), 1.0, "auto starts the count with ZP+ inside a volume");
     }
 }
 
@@ -124,7 +118,7 @@ fn auto_takes_zpass_when_the_camera_is_provably_outside() {
     let v = scene.view("default").unwrap().clone();
     let run = render(&gpu, &scene, &v, SIZE, "volumes", &[LightId(0)]);
     let name = scene.lights[0].name.clone();
-    assert_eq!(stat(&run, &name, "method_zpass"), 1.0);
+    assert_eq!(run.stat(&name, "method_zpass"), 1.0);
     let (wrong, n) = wrong_frac(&scene, &run, LightId(0), &v);
     assert!(n > 1000 && wrong <= EXACT, "penumbra: wrong_frac {wrong} of {n}");
 }
@@ -142,8 +136,8 @@ fn light_in_the_near_plane_falls_back_to_zfail() {
     *position = in_plane;
     for spec in ["volumes:mode=zpplus", "volumes"] {
         let run = render(&gpu, &scene, &v, SIZE, spec, &[light]);
-        assert_eq!(stat(&run, "lamp 1", "zfail_fallbacks"), 1.0, "{spec}: the flat ZP+ frustum is detected");
-        assert_eq!(stat(&run, "lamp 1", "method_zfail"), 1.0);
+        assert_eq!(run.stat("lamp 1", "zfail_fallbacks"), 1.0, "{spec}: the flat ZP+ frustum is detected");
+        assert_eq!(run.stat("lamp 1", "method_zfail"), 1.0);
         let (wrong, n) = wrong_frac(&scene, &run, light, &v);
         println!("light in the near plane, {spec}: {:.4}% of {n} wrong", 100.0 * wrong);
         assert!(n > 1000 && wrong <= EXACT, "{spec}: wrong_frac {wrong}");
@@ -259,7 +253,7 @@ fn gpu_extraction_matches_the_cpu_reference() {
     println!("volume triangles: GPU {gpu_triangles}, CPU {cpu_triangles}");
     assert!(cpu_triangles > 1000);
     assert_eq!(gpu_triangles, cpu_triangles, "the GPU builds the same volumes as the CPU reference");
-    assert!(stat(&run, "ceiling lamp", "fill_fragments") > 0.0, "the fill is measured");
+    assert!(run.stat("ceiling lamp", "fill_fragments") > 0.0, "the fill is measured");
 }
 
 #[test]
@@ -279,7 +273,7 @@ fn scissor_and_culling_change_the_cost_not_the_image() {
         // Measured 0: culling only drops polygons that draw nothing.
         assert!(differ <= 2, "light {}: {differ} pixels change with scissor and culling", l.0);
     }
-    let fill = |run: &Run| scene.lights.iter().map(|l| stat(run, &l.name, "fill_fragments")).sum::<f64>();
+    let fill = |run: &Run| scene.lights.iter().map(|l| run.stat(&l.name, "fill_fragments")).sum::<f64>();
     let tris = |run: &Run| run.renderer.shadows.stats().triangles;
     println!("fill: {} → {}; triangles {} → {}", fill(&plain), fill(&fast), tris(&plain), tris(&fast));
     // Measured 6362 → 5342 triangles and 1.064 M → 0.996 M fragments (lamp 3's range covers 89%

@@ -35,6 +35,13 @@ impl Run {
     pub fn visibility(&self, light: LightId) -> Vec<f32> {
         self.renderer.read_visibility(light).unwrap().unwrap()
     }
+
+    /// The technique statistic `key` of the light named `light` (`TechniqueStats::extra`).
+    pub fn stat(&self, light: &str, key: &str) -> f64 {
+        let stats = self.renderer.shadows.stats();
+        let full = format!("{light}: {key}");
+        stats.extra.iter().find(|(k, _)| *k == full).map(|(_, v)| *v).unwrap_or_else(|| panic!("no stat {full}"))
+    }
 }
 
 /// The reference on `surface` for one light.

@@ -78,6 +78,8 @@ fn compare_writes_every_file_and_key() {
             "max_abs",
             "wrong_frac",
             "penumbra_rmse",
+            "lit_darkened_frac",
+            "shadow_brightened_frac",
             "flip_mean",
             "image_rmse",
             "lights",
@@ -91,8 +93,23 @@ fn compare_writes_every_file_and_key() {
         assert!(t["gpu_ms"].get("median").is_some() && t["gpu_ms"].get("passes").is_some());
         assert!(t["cpu_ms"]["median"].is_number());
         for l in t["lights"].as_array().unwrap() {
-            for key in ["index", "name", "rmse", "mae", "max_abs", "wrong_frac", "relevant_pixels"] {
+            for key in [
+                "index",
+                "name",
+                "rmse",
+                "mae",
+                "max_abs",
+                "wrong_frac",
+                "penumbra_rmse",
+                "relevant_pixels",
+                "lit_darkened_frac",
+                "shadow_brightened_frac",
+            ] {
                 assert!(l.get(key).is_some(), "light entry lacks '{key}'");
+            }
+            for key in ["lit_darkened_frac", "shadow_brightened_frac"] {
+                // Fractions of the relevant pixels.
+                assert!(l[key].as_f64().is_some_and(|x| (0.0..=1.0).contains(&x)), "light {key}: {}", l[key]);
             }
         }
         let slug = t["spec"].as_str().unwrap();
@@ -109,9 +126,14 @@ fn compare_writes_every_file_and_key() {
     }
     let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("data:image/png;base64,") && html.contains("sampled"));
+    assert!(html.contains("lit darkened") && html.contains("shadow brightened") && html.contains("truth's penumbra"));
     // `none` ignores every shadow: it must be the worst.
     let rmse = |i: usize| techniques[i]["rmse"].as_f64().unwrap();
     assert!(rmse(0) > rmse(1) && rmse(0) > rmse(3));
+    // `none` writes V = 1 everywhere: it darkens nothing and leaks light into the whole umbra (the
+    // scene's occluder is wider than the light, so the umbra is not empty).
+    assert_eq!(techniques[0]["lit_darkened_frac"].as_f64(), Some(0.0));
+    assert!(techniques[0]["shadow_brightened_frac"].as_f64().unwrap() > 0.0, "{}", techniques[0]);
     // In the lit images too: no shadow at all is further from the reference than soft ones.
     let image = |i: usize| techniques[i]["image_rmse"].as_f64().unwrap();
     assert!(image(0) > image(3), "none {} vs sampled {}", image(0), image(3));

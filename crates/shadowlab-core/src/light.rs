@@ -52,6 +52,16 @@ impl Light {
         self
     }
 
+    /// Moves the emitter's position by `f` (directions and sizes stay): [`crate::Scene::recentre`].
+    pub fn translate(&mut self, f: impl Fn(Vec3) -> Vec3) {
+        match &mut self.kind {
+            LightKind::Point { position, .. } | LightKind::Spot { position, .. } | LightKind::Rect { position, .. } => {
+                *position = f(*position)
+            }
+            LightKind::Directional { .. } => {}
+        }
+    }
+
     /// `point`, `spot`, `directional` or `rect`: the names used by the CLI, TOML files and reports.
     pub fn type_name(&self) -> &'static str {
         match self.kind {
@@ -176,6 +186,13 @@ impl Light {
             LightKind::Rect { direction, .. } => (-l).dot(direction) > 0.0,
             _ => true,
         }
+    }
+
+    /// [`Light::is_relevant`] for a surface point with shading normal `n` and geometric normal `ng`:
+    /// the light's centre must be in front by both (DESIGN.md §3). Where they disagree (terminators
+    /// of smooth-shaded meshes) the visibility depends on conventions, not on the technique.
+    pub fn is_relevant_surface(&self, p: Vec3, n: Vec3, ng: Vec3) -> bool {
+        self.is_relevant(p, n) && ng.dot(self.to_light(p).0) > 0.0
     }
 
     /// The light's falloff at `p`: windowed inverse square for local lights (the window of the

@@ -1,7 +1,7 @@
 //! The scene model shared by every part of shadowlab: meshes placed by instances, materials, lights
 //! and named views.
 
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, DVec3, Vec3};
 
 use crate::bounds::Aabb;
 use crate::camera::{CameraPath, View};
@@ -122,6 +122,11 @@ impl Instance {
     }
 }
 
+/// `p` moved by `-shift`, rounded once (in `f64`, then to `f32`).
+fn local(p: Vec3, shift: DVec3) -> Vec3 {
+    (p.as_dvec3() - shift).as_vec3()
+}
+
 /// Counts for listings and reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct SceneStats {
@@ -148,6 +153,9 @@ pub struct Scene {
     pub paths: Vec<CameraPath>,
     /// Ambient light (linear RGB), added unshadowed: `albedo · ambient` in DESIGN.md §3.
     pub ambient: Vec3,
+    /// World position of the scene's local origin: every `f32` coordinate of the scene (instance
+    /// translations, lights, views) is relative to it. Zero until [`Scene::recentre`] moves it.
+    pub origin: DVec3,
 }
 
 impl Scene {
@@ -161,7 +169,55 @@ impl Scene {
             views: Vec::new(),
             paths: Vec::new(),
             ambient: Vec3::splat(0.03),
+            origin: DVec3::ZERO,
         }
+    }
+
+    /// Moves the local origin near the scene's centre, so that the `f32` coordinates every renderer
+    /// and the ray tracer work in stay small however far from the world's origin the scene lies:
+    /// the large-world practice of rendering relative to a local origin (DESIGN.md §3, "robust far
+    /// from the origin"). At 1e5 m a float's step is 8 mm, which is a shadow map's acne and the
+    /// truth's self-shadowing; relative to the centre it is a few µm again.
+    ///
+    /// The new origin is the bounds' centre rounded to a grid of the scene's own size (the power of
+    /// two at or above its diagonal), so scenes already around the world's origin do not move at
+    /// all, and a scene and its copy translated by a multiple of that grid get the same local
+    /// coordinates bit for bit. Shifts are computed in `f64`. Returns the shift applied (world
+    /// minus local) in this call.
+    pub fn recentre(&mut self) -> DVec3 {
+        let b = self.bounds();
+        if b.is_empty() || !b.diagonal().is_finite() {
+            return DVec3::ZERO;
+        }
+        let grid = f64::from(b.diagonal()).max(1e-3).log2().ceil().exp2();
+        let centre = (b.min.as_dvec3() + b.max.as_dvec3()) * 0.5;
+        let shift = (centre / grid).round() * grid;
+        if shift == DVec3::ZERO {
+            return shift;
+        }
+        for i in &mut self.instances {
+            i.transform.translation = local(Vec3::from(i.transform.translation), shift).into();
+        }
+        for l in &mut self.lights {
+            l.translate(|p| local(p, shift));
+        }
+        for v in self.views.iter_mut().chain(self.paths.iter_mut().flat_map(|p| p.keys.iter_mut())) {
+            v.position = local(v.position, shift);
+            v.target = local(v.target, shift);
+        }
+        self.origin += shift;
+        shift
+    }
+
+    /// A world position (in `f64`, e.g. from an application's large-world coordinates) in this
+    /// scene's local frame.
+    pub fn to_local(&self, world: DVec3) -> Vec3 {
+        (world - self.origin).as_vec3()
+    }
+
+    /// A local position in world coordinates.
+    pub fn to_world(&self, local: Vec3) -> DVec3 {
+        local.as_dvec3() + self.origin
     }
 
     pub fn add_mesh(&mut self, mesh: Mesh) -> MeshId {
@@ -306,5 +362,40 @@ impl Scene {
             return Err(at("scene".into(), "scene bounds are empty or infinite".into()));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::light::LightKind;
+    use crate::primitives;
+
+    fn far_scene(offset: Vec3) -> Scene {
+        let mut s = Scene::new("far");
+        let m = s.add_mesh(primitives::cuboid(Vec3::splat(2.0)));
+        let mat = s.add_material(Material::default());
+        s.add_instance(Instance::new("box", m, mat, Affine3A::from_translation(offset + Vec3::new(0.5, 1.0, 0.0))));
+        let light = LightKind::Point { position: offset + Vec3::new(0.0, 4.0, 0.0), radius: 0.0 };
+        s.add_light(Light::new("bulb", light, Vec3::ONE, 1.0));
+        s.views.push(View::new("v", offset + Vec3::new(3.0, 2.0, 3.0), offset, 0.1, 50.0));
+        s
+    }
+
+    #[test]
+    fn recentring_moves_far_scenes_by_whole_grid_steps_and_leaves_near_ones() {
+        let mut near = far_scene(Vec3::ZERO);
+        assert_eq!(near.recentre(), DVec3::ZERO, "a scene around the origin stays");
+        let mut far = far_scene(Vec3::new(1.0e5, 0.0, -3.0e5));
+        let shift = far.recentre();
+        // The box's diagonal is 3.46: grid 4; the centre (1e5 + 0.5, 1, −3e5) rounds to (1e5, 0, −3e5).
+        assert_eq!(shift, DVec3::new(1.0e5, 0.0, -3.0e5));
+        assert_eq!(far.origin, shift);
+        assert_eq!(far.instances[0].transform.translation, near.instances[0].transform.translation);
+        assert_eq!(far.lights[0].position(), near.lights[0].position());
+        assert_eq!((far.views[0].position, far.views[0].target), (near.views[0].position, near.views[0].target));
+        assert_eq!(far.to_local(DVec3::new(1.0e5, 4.0, -3.0e5)), Vec3::new(0.0, 4.0, 0.0));
+        assert_eq!(far.to_world(Vec3::ONE), DVec3::new(1.0e5 + 1.0, 1.0, -3.0e5 + 1.0));
+        assert_eq!(far.recentre(), DVec3::ZERO, "recentring twice is recentring once");
     }
 }

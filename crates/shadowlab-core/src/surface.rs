@@ -6,15 +6,18 @@
 
 use glam::Vec3;
 
-/// World positions and normals per pixel, row-major with the top row first.
+/// Positions and normals per pixel, row-major with the top row first. Positions are in the scene's
+/// local frame ([`crate::Scene::origin`]), like everything a renderer draws.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SurfaceBuffer {
     pub width: u32,
     pub height: u32,
     /// World-space position of the visible surface (meaningless where `covered` is false).
     pub positions: Vec<Vec3>,
-    /// Unit world-space shading normal, facing the camera.
+    /// Unit world-space shading normal, turned by the facet's facing (DESIGN.md §3).
     pub normals: Vec<Vec3>,
+    /// Unit geometric (facet) normal N_g, facing the camera.
+    pub geometric_normals: Vec<Vec3>,
     /// Whether the pixel shows geometry (false: background).
     pub covered: Vec<bool>,
 }
@@ -23,7 +26,14 @@ impl SurfaceBuffer {
     /// An empty (all-background) buffer.
     pub fn new(width: u32, height: u32) -> Self {
         let n = (width * height) as usize;
-        Self { width, height, positions: vec![Vec3::ZERO; n], normals: vec![Vec3::Y; n], covered: vec![false; n] }
+        Self {
+            width,
+            height,
+            positions: vec![Vec3::ZERO; n],
+            normals: vec![Vec3::Y; n],
+            geometric_normals: vec![Vec3::Y; n],
+            covered: vec![false; n],
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -38,8 +48,14 @@ impl SurfaceBuffer {
         self.covered.iter().filter(|&&c| c).count()
     }
 
-    /// Per pixel: whether it is relevant for `light` (DESIGN.md §3).
+    /// Whether pixel `i` is relevant for `light` (DESIGN.md §3): it shows geometry that faces the
+    /// light by both its shading and its geometric normal, within the light's range and cone.
+    pub fn is_relevant(&self, i: usize, light: &crate::light::Light) -> bool {
+        self.covered[i] && light.is_relevant_surface(self.positions[i], self.normals[i], self.geometric_normals[i])
+    }
+
+    /// Per pixel: whether it is relevant for `light`.
     pub fn relevance(&self, light: &crate::light::Light) -> Vec<bool> {
-        (0..self.len()).map(|i| self.covered[i] && light.is_relevant(self.positions[i], self.normals[i])).collect()
+        (0..self.len()).map(|i| self.is_relevant(i, light)).collect()
     }
 }

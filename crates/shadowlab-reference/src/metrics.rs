@@ -3,9 +3,18 @@
 //! All figures are over *relevant* pixels: those where the reference holds a value (not NaN).
 //! - `rmse`, `mae`, `max_abs`: of V − V_ref;
 //! - `wrong_frac`: the fraction with |V − V_ref| > [`WRONG_THRESHOLD`];
-//! - `penumbra_rmse`: RMSE over pixels where V_ref or V lies strictly inside
-//!   ([`PENUMBRA_LO`], [`PENUMBRA_HI`]);
-//! - a technique value that is NaN at a relevant pixel counts as an error of 1 (and is counted).
+//! - `penumbra_rmse`: RMSE over the truth's penumbra, pixels where V_ref lies strictly inside
+//!   ([`PENUMBRA_LO`], [`PENUMBRA_HI`]). Only V_ref decides: a set that also took pixels where the
+//!   technique alone is partial let false faint shadows (small errors on truth-lit pixels) dilute it,
+//!   so acne lowered the figure; those errors are counted by the two fractions below instead;
+//! - `lit_darkened_frac`: the fraction with V_ref = 1 and V < [`PENUMBRA_HI`] (acne, false shadows);
+//! - `shadow_brightened_frac`: the fraction with V_ref = 0 and V > [`PENUMBRA_LO`] (light leaks);
+//! - a technique value that is NaN at a relevant pixel counts as an error of 1 (and is counted in
+//!   `missing`): it is wrong, lit-darkened where V_ref = 1, shadow-brightened where V_ref = 0, and
+//!   adds 1 to the penumbra's sum where V_ref is partial.
+//!
+//! V_ref = 1 and V_ref = 0 are exact: the reference is a ratio of visible samples, so a pixel that
+//! every sample reaches (or none) holds exactly 1 (or 0).
 //!
 //! Technique-level figures pool the pixels of all lights: [`ErrorStats`] accumulates sums, so
 //! pooling is adding.
@@ -24,8 +33,13 @@ pub struct ErrorStats {
     sum_abs: f64,
     pub max_abs: f32,
     pub wrong: u64,
+    /// Pixels of the truth's penumbra (V_ref strictly inside (PENUMBRA_LO, PENUMBRA_HI)).
     pub penumbra_pixels: u64,
     penumbra_sum_sq: f64,
+    /// Pixels with V_ref = 1 and V < PENUMBRA_HI (or V NaN): acne.
+    pub lit_darkened: u64,
+    /// Pixels with V_ref = 0 and V > PENUMBRA_LO (or V NaN): leaks.
+    pub shadow_brightened: u64,
     /// Relevant pixels where the technique gave no value (NaN).
     pub missing: u64,
 }
@@ -70,10 +84,15 @@ impl ErrorStats {
         if d > WRONG_THRESHOLD {
             self.wrong += 1;
         }
-        let inside = |x: f32| x > PENUMBRA_LO && x < PENUMBRA_HI;
-        if inside(reference) || inside(value) {
+        if reference > PENUMBRA_LO && reference < PENUMBRA_HI {
             self.penumbra_pixels += 1;
             self.penumbra_sum_sq += f64::from(d) * f64::from(d);
+        } else if reference >= 1.0 {
+            if value.is_nan() || value < PENUMBRA_HI {
+                self.lit_darkened += 1;
+            }
+        } else if reference <= 0.0 && (value.is_nan() || value > PENUMBRA_LO) {
+            self.shadow_brightened += 1;
         }
     }
 
@@ -85,6 +104,8 @@ impl ErrorStats {
         self.wrong += other.wrong;
         self.penumbra_pixels += other.penumbra_pixels;
         self.penumbra_sum_sq += other.penumbra_sum_sq;
+        self.lit_darkened += other.lit_darkened;
+        self.shadow_brightened += other.shadow_brightened;
         self.missing += other.missing;
     }
 
@@ -100,7 +121,17 @@ impl ErrorStats {
         if self.pixels == 0 { 0.0 } else { self.wrong as f64 / self.pixels as f64 }
     }
 
-    /// `None` when no pixel is in a penumbra (hard shadows that agree).
+    /// Fraction of relevant pixels lit in the truth that the technique darkens (acne).
+    pub fn lit_darkened_frac(&self) -> f64 {
+        if self.pixels == 0 { 0.0 } else { self.lit_darkened as f64 / self.pixels as f64 }
+    }
+
+    /// Fraction of relevant pixels in the truth's umbra that the technique brightens (leaks).
+    pub fn shadow_brightened_frac(&self) -> f64 {
+        if self.pixels == 0 { 0.0 } else { self.shadow_brightened as f64 / self.pixels as f64 }
+    }
+
+    /// `None` when the truth has no penumbra pixel (hard shadows).
     pub fn penumbra_rmse(&self) -> Option<f64> {
         (self.penumbra_pixels > 0).then(|| (self.penumbra_sum_sq / self.penumbra_pixels as f64).sqrt())
     }
@@ -112,6 +143,8 @@ impl ErrorStats {
             max_abs: f64::from(self.max_abs),
             wrong_frac: self.wrong_frac(),
             penumbra_rmse: self.penumbra_rmse(),
+            lit_darkened_frac: self.lit_darkened_frac(),
+            shadow_brightened_frac: self.shadow_brightened_frac(),
             relevant_pixels: self.pixels,
             penumbra_pixels: self.penumbra_pixels,
         }
@@ -126,6 +159,8 @@ pub struct Metrics {
     pub max_abs: f64,
     pub wrong_frac: f64,
     pub penumbra_rmse: Option<f64>,
+    pub lit_darkened_frac: f64,
+    pub shadow_brightened_frac: f64,
     pub relevant_pixels: u64,
     pub penumbra_pixels: u64,
 }
@@ -211,9 +246,106 @@ mod tests {
         assert!((s.mae() - 1.25 / 4.0).abs() < 1e-6);
         assert_eq!(s.max_abs, 1.0);
         assert_eq!(s.wrong, 2);
-        // Penumbra: value 0.2 (ref 0), ref 0.5: two pixels.
-        assert_eq!(s.penumbra_pixels, 2);
-        assert!((s.penumbra_rmse().unwrap() - ((0.04 + 0.0025) / 2.0f64).sqrt()).abs() < 1e-6);
+        // The truth's penumbra is the one pixel with ref 0.5 (value 0.2 over ref 0 is a leak, not
+        // penumbra); 1e-6 is f32 rounding of 0.45 − 0.5.
+        assert_eq!(s.penumbra_pixels, 1);
+        assert!((s.penumbra_rmse().unwrap() - 0.05).abs() < 1e-6);
+        assert_eq!((s.lit_darkened, s.shadow_brightened), (1, 1));
+    }
+
+    /// The old `penumbra_rmse`: over pixels where V_ref *or* V is partial. Kept here only to show
+    /// what it got wrong.
+    fn old_penumbra_rmse(value: &[f32], reference: &[f32]) -> f64 {
+        let inside = |x: f32| x > PENUMBRA_LO && x < PENUMBRA_HI;
+        let (mut sum, mut n) = (0.0f64, 0u32);
+        for (&v, &r) in value.iter().zip(reference) {
+            if inside(v) || inside(r) {
+                sum += f64::from(v - r).powi(2);
+                n += 1;
+            }
+        }
+        (sum / f64::from(n)).sqrt()
+    }
+
+    #[test]
+    fn penumbra_rmse_is_over_the_truths_penumbra_and_acne_is_flagged_apart() {
+        // 10 truth-penumbra pixels (V_ref 0.5), 90 truth-lit pixels, 20 umbra pixels.
+        let mut reference = vec![0.5f32; 10];
+        reference.extend([1.0; 90]);
+        reference.extend([0.0; 20]);
+        // A: faint false shadows (V = 0.9) on every truth-lit pixel, and a penumbra 0.2 too bright.
+        let a: Vec<f32> = reference
+            .iter()
+            .map(|&r| {
+                if r == 1.0 {
+                    0.9
+                } else if r == 0.5 {
+                    0.7
+                } else {
+                    r
+                }
+            })
+            .collect();
+        // B: no acne, a penumbra 0.15 too bright: B's penumbra is the better one.
+        let b: Vec<f32> = reference.iter().map(|&r| if r == 0.5 { 0.65 } else { r }).collect();
+        // Old definition: A's 90 acne pixels (error 0.1) joined its 10 penumbra pixels (error 0.2)
+        // and diluted them: √((10·0.04 + 90·0.01) / 100) = 0.114 < B's 0.15. A ranked better.
+        let (old_a, old_b) = (old_penumbra_rmse(&a, &reference), old_penumbra_rmse(&b, &reference));
+        // 1e-6: f32 rounding of the inputs.
+        assert!((old_a - 0.013f64.sqrt()).abs() < 1e-6 && (old_b - 0.15).abs() < 1e-6, "{old_a} {old_b}");
+        assert!(old_a < old_b);
+        // New definition: the truth's penumbra only, 0.2 against 0.15: B ranks better.
+        let (sa, sb) = (ErrorStats::compare(&a, &reference), ErrorStats::compare(&b, &reference));
+        assert_eq!((sa.penumbra_pixels, sb.penumbra_pixels), (10, 10));
+        let (new_a, new_b) = (sa.penumbra_rmse().unwrap(), sb.penumbra_rmse().unwrap());
+        // 1e-6: f32 rounding of the inputs.
+        assert!((new_a - 0.2).abs() < 1e-6 && (new_b - 0.15).abs() < 1e-6, "{new_a} {new_b}");
+        assert!(new_b < new_a);
+        // The acne is where it belongs: 90 of 120 relevant pixels are lit and darkened in A, none in B.
+        assert_eq!(sa.summary().lit_darkened_frac, 90.0 / 120.0);
+        assert_eq!(sb.summary().lit_darkened_frac, 0.0);
+        assert_eq!((sa.shadow_brightened, sb.shadow_brightened), (0, 0));
+        // With A's penumbra correct, acne no longer shows in penumbra_rmse (it did before: 0.095).
+        let a_exact: Vec<f32> = a.iter().zip(&reference).map(|(&v, &r)| if r == 0.5 { r } else { v }).collect();
+        let s = ErrorStats::compare(&a_exact, &reference);
+        assert_eq!(s.penumbra_rmse(), Some(0.0));
+        assert_eq!(s.lit_darkened, 90);
+        // √(90·0.01 / 100) = 0.0949; 1e-6: f32 rounding.
+        assert!((old_penumbra_rmse(&a_exact, &reference) - 0.009f64.sqrt()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn lit_darkened_and_shadow_brightened_by_hand_and_pooled() {
+        // Light 1: V_ref = 1 at four pixels, of which V 0.97 and 0.5 are darkened (< 0.98) and
+        // 0.98 and 1.0 are not (the bound is strict); V_ref = 0 at two pixels, one brightened (0.03 > 0.02).
+        let l1 = ErrorStats::compare(&[0.97, 0.98, 1.0, 0.5, 0.03, 0.02], &[1.0, 1.0, 1.0, 1.0, 0.0, 0.0]);
+        assert_eq!((l1.pixels, l1.lit_darkened, l1.shadow_brightened), (6, 2, 1));
+        assert_eq!(l1.lit_darkened_frac(), 2.0 / 6.0);
+        assert_eq!(l1.shadow_brightened_frac(), 1.0 / 6.0);
+        // Light 2: a partial truth (0.99: neither lit nor in the penumbra, so in neither fraction),
+        // an umbra pixel leaking fully, and one not relevant (NaN reference).
+        let l2 = ErrorStats::compare(&[0.5, 1.0, 0.0], &[0.99, 0.0, f32::NAN]);
+        assert_eq!((l2.pixels, l2.lit_darkened, l2.shadow_brightened, l2.penumbra_pixels), (2, 0, 1, 0));
+        assert_eq!(l2.summary().shadow_brightened_frac, 0.5);
+        // Pooled: the pixels of both lights, 2 darkened and 2 brightened of 8.
+        let mut pooled = l1;
+        pooled.merge(&l2);
+        let m = pooled.summary();
+        assert_eq!(m.relevant_pixels, 8);
+        assert_eq!((m.lit_darkened_frac, m.shadow_brightened_frac), (0.25, 0.25));
+        let none = ErrorStats::default().summary();
+        assert_eq!((none.lit_darkened_frac, none.shadow_brightened_frac), (0.0, 0.0));
+    }
+
+    #[test]
+    fn nan_values_are_errors_in_every_measure() {
+        // A NaN technique value where the truth is lit, in umbra, and in the penumbra.
+        let s = ErrorStats::compare(&[f32::NAN; 3], &[1.0, 0.0, 0.5]);
+        assert_eq!((s.pixels, s.missing, s.wrong), (3, 3, 3));
+        assert_eq!((s.lit_darkened, s.shadow_brightened, s.penumbra_pixels), (1, 1, 1));
+        // Each counts as an error of 1.
+        assert_eq!(s.rmse(), 1.0);
+        assert_eq!(s.penumbra_rmse(), Some(1.0));
     }
 
     #[test]

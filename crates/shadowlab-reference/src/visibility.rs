@@ -5,11 +5,16 @@
 //! disk or the cone by [`shadowlab_core::sampling`]), each pixel with its own random stream derived
 //! from `(seed, light, pixel)`: the same input gives bit-identical output on any number of threads.
 //!
-//! **Ray origins.** A shadow ray starts at `p + ε·n`, with ε = [`EPSILON_SCALE`] × the scene's
-//! bounding-box diagonal, so that it does not hit the surface it starts on. G-buffer positions carry
-//! float error of about 1e-6 of their magnitude; 1e-5 of the scene size leaves a margin of ten or more
-//! for every built-in scene, and is small against any shadow feature (0.07 mm in `room`, 1 cm
-//! over the 800 m `terrain`).
+//! **Ray origins** (DESIGN.md §3). A shadow ray starts at `p + ε·N_g`: along the *geometric* normal,
+//! which is what separates the point from the triangle it lies on (the shading normal may point
+//! into the surface at grazing angles, and a ray started behind its own triangle hits it). ε is
+//! [`ray_epsilon`]: the larger of [`EPSILON_SCALE`] × the scene's diagonal and [`EPSILON_ULPS`] float
+//! steps of the largest coordinate of p. The first term covers G-buffer positions, which carry
+//! float error of about 1e-6 of their distance to the camera: 1e-5 of the scene size leaves a margin
+//! of ten (0.07 mm in `room`, 1 cm over the 800 m `terrain`). The second keeps the offset above the
+//! coordinates' own rounding far from the origin; scenes are traced in their local frame
+//! ([`shadowlab_core::Scene::recentre`]), where it rarely binds, so that a scene and its translated
+//! copy have the same truth.
 //!
 //! **Samples below the horizon.** An emitter sample behind the surface's tangent plane (n·ω ≤ 0) is
 //! hidden by the surface itself and counts as occluded: a point sees no light through the body it
@@ -27,6 +32,16 @@ use crate::bvh::{PreparedRay, SceneBvh};
 
 /// Ray origin offset as a fraction of the scene diagonal (see the module docs).
 pub const EPSILON_SCALE: f32 = 1.0e-5;
+/// Ray origin offset in float steps of the position's largest coordinate (Wächter & Binder, Ray
+/// Tracing Gems ch. 6, offset by the magnitude of the position rather than a fixed length).
+pub const EPSILON_ULPS: f32 = 64.0;
+
+/// The shadow-ray offset at `p` in a scene of diagonal `scene_diagonal` (see the module docs).
+#[inline]
+pub fn ray_epsilon(p: Vec3, scene_diagonal: f32) -> f32 {
+    let magnitude = p.abs().max_element();
+    (EPSILON_SCALE * scene_diagonal.max(1e-6)).max(EPSILON_ULPS * f32::EPSILON * magnitude)
+}
 
 /// How the reference integrates area emitters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,7 +96,6 @@ pub fn light_visibility(
     progress: Option<Progress<'_>>,
 ) -> Visibility {
     let start = Instant::now();
-    let eps = EPSILON_SCALE * bvh.scene_diagonal.max(1e-6);
     let samples = if light.is_hard() { 1 } else { settings.samples.max(1) };
     let width = surface.width as usize;
     let total = surface.len();
@@ -93,10 +107,11 @@ pub fn light_visibility(
         let mut row_rays = 0u64;
         for (x, v) in out.iter_mut().enumerate() {
             let i = row * width + x;
-            let (p, n) = (surface.positions[i], surface.normals[i]);
-            if !surface.covered[i] || !light.is_relevant(p, n) {
+            if !surface.is_relevant(i, light) {
                 continue;
             }
+            let (p, n) = (surface.positions[i], surface.geometric_normals[i]);
+            let eps = ray_epsilon(p, bvh.scene_diagonal);
             let origin = p + n * eps;
             if samples == 1 && light.is_hard() {
                 row_rays += 1;
@@ -127,7 +142,8 @@ pub fn light_visibility(
     }
 }
 
-/// Traces the shadow ray of one emitter sample `u` from `origin` (already offset along `n`).
+/// Traces the shadow ray of one emitter sample `u` from `origin` (already offset along the
+/// geometric normal `n`, whose tangent plane hides samples behind it).
 #[inline]
 fn sample_visible(bvh: &SceneBvh, light: &Light, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> bool {
     let (dir, tmax) = match sample_emitter(light, origin, u) {
@@ -202,17 +218,19 @@ pub fn near_hard_boundary(
     light: &Light,
     radius: &(dyn Fn(Vec3) -> f32 + Sync),
 ) -> Vec<bool> {
-    let eps = EPSILON_SCALE * bvh.scene_diagonal.max(1e-6);
     let mut centre = light.clone();
     centre.scale_emitter(0.0);
-    let visible = |p: Vec3, n: Vec3| sample_visible(bvh, &centre, p + n * eps, n, Vec2::splat(0.5), eps);
+    let visible = |p: Vec3, n: Vec3| {
+        let eps = ray_epsilon(p, bvh.scene_diagonal);
+        sample_visible(bvh, &centre, p + n * eps, n, Vec2::splat(0.5), eps)
+    };
     (0..surface.len())
         .into_par_iter()
         .map(|i| {
-            let (p, n) = (surface.positions[i], surface.normals[i]);
-            if !surface.covered[i] || !light.is_relevant(p, n) {
+            if !surface.is_relevant(i, light) {
                 return false;
             }
+            let (p, n) = (surface.positions[i], surface.geometric_normals[i]);
             let here = visible(p, n);
             let (l, _) = light.to_light(p);
             let (t, b) = shadowlab_core::sampling::orthonormal_basis(l);
@@ -237,10 +255,8 @@ pub fn near_hard_boundary(
 /// - **cast shadows**: the reference, traced at each point's camera ray where it meets the pixel's
 ///   tangent plane, disagrees with the centre;
 /// - **the geometric terminator**: the triangle that each point's camera ray hits in `all` (a BVH of
-///   everything drawn) faces the light at some points and not at others. The reference offsets its
-///   rays along the *shading* normal, so on curved meshes it places the terminator where the
-///   interpolated normal turns, while geometry-exact techniques place it at the mesh's silhouette
-///   edge; within half a pixel of that edge both are right.
+///   everything drawn) faces the light at some points and not at others: a pixel straddling the
+///   mesh's silhouette edge from the light, which an exact technique may give to either side.
 ///
 /// Grazing pixels (the tangent plane nearly along the ray) are marked too. The light's centre is
 /// used, whatever its emitter size.
@@ -251,10 +267,12 @@ pub fn near_boundary_in_image(
     light: &Light,
     view: &shadowlab_core::View,
 ) -> Vec<bool> {
-    let eps = EPSILON_SCALE * casters.scene_diagonal.max(1e-6);
     let mut centre = light.clone();
     centre.scale_emitter(0.0);
-    let visible = |p: Vec3, n: Vec3| sample_visible(casters, &centre, p + n * eps, n, Vec2::splat(0.5), eps);
+    let visible = |p: Vec3, n: Vec3| {
+        let eps = ray_epsilon(p, casters.scene_diagonal);
+        sample_visible(casters, &centre, p + n * eps, n, Vec2::splat(0.5), eps)
+    };
     // Whether the triangle seen along a camera ray faces the light (None: background).
     let faces_light = |o: Vec3, dir: Vec3| {
         let hit = all.closest(&PreparedRay::new(o, dir, 0.0, f32::INFINITY), |_, _| true)?;
@@ -272,10 +290,10 @@ pub fn near_boundary_in_image(
     (0..surface.len())
         .into_par_iter()
         .map(|i| {
-            let (p, n) = (surface.positions[i], surface.normals[i]);
-            if !surface.covered[i] || !light.is_relevant(p, n) {
+            if !surface.is_relevant(i, light) {
                 return false;
             }
+            let (p, n) = (surface.positions[i], surface.geometric_normals[i]);
             let here = visible(p, n);
             let (x, y) = ((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
             let (o, dir) = view.image_ray(x, y, w, h);

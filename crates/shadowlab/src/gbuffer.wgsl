@@ -1,4 +1,5 @@
-// G-buffer pass: world normal (+ shininess), albedo (+ specular strength), emission; reversed-Z depth.
+// G-buffer pass: world normal (+ shininess), albedo (+ specular strength), emission, geometric
+// normal; reversed-Z depth.
 
 // #include "common.wgsl"
 
@@ -23,6 +24,8 @@ struct VertexOut {
     @location(0) normal: vec3<f32>,
     @location(1) albedo_specular: vec4<f32>,
     @location(2) material: vec4<f32>,
+    // Position relative to the eye: small, so its screen derivatives keep their precision.
+    @location(3) eye_relative: vec3<f32>,
 };
 
 @vertex
@@ -30,7 +33,9 @@ fn vs_main(v: VertexIn) -> VertexOut {
     let model = mat4x4<f32>(v.model0, v.model1, v.model2, v.model3);
     let normal_matrix = mat3x3<f32>(v.normal0.xyz, v.normal1.xyz, v.normal2.xyz);
     var out: VertexOut;
-    out.clip = camera.view_proj * (model * vec4<f32>(v.position, 1.0));
+    let world = model * vec4<f32>(v.position, 1.0);
+    out.clip = camera.view_proj * world;
+    out.eye_relative = world.xyz - camera.position.xyz;
     out.normal = normal_matrix * v.normal;
     out.albedo_specular = v.albedo_specular;
     out.material = v.material;
@@ -41,10 +46,18 @@ struct GBufferOut {
     @location(0) normal: vec4<f32>,
     @location(1) albedo: vec4<f32>,
     @location(2) emissive: vec4<f32>,
+    @location(3) geometric_normal: vec4<f32>,
 };
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> GBufferOut {
+    // The facet's normal: screen derivatives of a triangle's interpolated position lie in its
+    // plane (helper pixels of a 2×2 quad extrapolate the same triangle). Turned towards the eye,
+    // it is N_g as DESIGN.md §3 defines it for either side of a surface.
+    var ng = normalize(cross(dpdx(in.eye_relative), dpdy(in.eye_relative)));
+    if (dot(ng, in.eye_relative) > 0.0) {
+        ng = -ng;
+    }
     var n = normalize(in.normal);
     // Only double-sided surfaces show their back (single-sided backs are culled): face the viewer.
     if (!front) {
@@ -54,5 +67,6 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> GBufferOut {
     out.normal = vec4<f32>(n, in.material.x);
     out.albedo = in.albedo_specular;
     out.emissive = vec4<f32>(in.material.yzw, 1.0);
+    out.geometric_normal = vec4<f32>(ng, 0.0);
     return out;
 }

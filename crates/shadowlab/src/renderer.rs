@@ -124,6 +124,9 @@ struct EnvironmentUniform {
 const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 const EMISSIVE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Half floats (full ones are not renderable on downlevel adapters): N_g · L keeps its sign except
+/// within about 1e-3 of grazing, where relevance is a coin toss for any convention.
+const GEOMETRIC_NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// The final image.
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -170,6 +173,7 @@ pub struct Renderer {
     normal: wgpu::Texture,
     albedo: wgpu::Texture,
     emissive: wgpu::Texture,
+    geometric_normal: wgpu::Texture,
     hdr: wgpu::Texture,
     output: wgpu::Texture,
     environment: wgpu::Buffer,
@@ -187,6 +191,8 @@ impl Renderer {
         let normal = target(device, "normal", NORMAL_FORMAT, width, height, wgpu::TextureUsages::empty());
         let albedo = target(device, "albedo", ALBEDO_FORMAT, width, height, wgpu::TextureUsages::empty());
         let emissive = target(device, "emissive", EMISSIVE_FORMAT, width, height, wgpu::TextureUsages::empty());
+        let geometric_normal =
+            target(device, "geometric normal", GEOMETRIC_NORMAL_FORMAT, width, height, wgpu::TextureUsages::empty());
         let hdr = target(device, "hdr", HDR_FORMAT, width, height, wgpu::TextureUsages::empty());
         let output = target(device, "output", OUTPUT_FORMAT, width, height, wgpu::TextureUsages::COPY_SRC);
         let surface = SurfaceInputs::new(
@@ -239,6 +245,7 @@ impl Renderer {
             normal,
             albedo,
             emissive,
+            geometric_normal,
             hdr,
             output,
             environment,
@@ -287,7 +294,8 @@ impl Renderer {
     fn gbuffer_pass(&mut self, encoder: &mut wgpu::CommandEncoder) {
         let shared = &self.shadows.shared;
         let timestamps = self.timer.render_pass(&self.gpu.device, PassKind::Gbuffer);
-        let views = [&self.normal, &self.albedo, &self.emissive].map(|t| t.create_view(&Default::default()));
+        let views = [&self.normal, &self.albedo, &self.emissive, &self.geometric_normal]
+            .map(|t| t.create_view(&Default::default()));
         let clear = |view| {
             Some(wgpu::RenderPassColorAttachment {
                 view,
@@ -302,7 +310,7 @@ impl Renderer {
         let depth_view = self.depth.create_view(&Default::default());
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("g-buffer"),
-            color_attachments: &[clear(&views[0]), clear(&views[1]), clear(&views[2])],
+            color_attachments: &[clear(&views[0]), clear(&views[1]), clear(&views[2]), clear(&views[3])],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &depth_view,
                 depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
@@ -421,8 +429,8 @@ impl Renderer {
         }
     }
 
-    /// The surface the techniques shade: world positions reconstructed from depth exactly as
-    /// their shaders do, and the G-buffer normals.
+    /// The surface the techniques shade: positions (in the scene's local frame) reconstructed from
+    /// depth exactly as their shaders do, the G-buffer normals and the facets' normals.
     pub fn read_surface(&self) -> Result<SurfaceBuffer, GpuError> {
         let device = &self.gpu.device;
         let n = u64::from(self.width) * u64::from(self.height);
@@ -434,7 +442,7 @@ impl Renderer {
                 mapped_at_creation: false,
             })
         };
-        let (positions, normals) = (make("positions"), make("normals"));
+        let (positions, normals, geometric_normals) = (make("positions"), make("normals"), make("geometric normals"));
         let shared = &self.shadows.shared;
         let pipeline = shared.compute_pipeline("export surface", || {
             let module = crate::shader::module(device, "export surface", include_str!("export_surface.wgsl"));
@@ -456,6 +464,13 @@ impl Renderer {
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&self.surface.normal) },
                 wgpu::BindGroupEntry { binding: 3, resource: positions.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: normals.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(
+                        &self.geometric_normal.create_view(&Default::default()),
+                    ),
+                },
+                wgpu::BindGroupEntry { binding: 6, resource: geometric_normals.as_entire_binding() },
             ],
         });
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -468,11 +483,13 @@ impl Renderer {
         self.gpu.queue.submit([encoder.finish()]);
         let p = util::f32s(&util::read_buffer(device, &self.gpu.queue, &positions)?);
         let nn = util::f32s(&util::read_buffer(device, &self.gpu.queue, &normals)?);
+        let ng = util::f32s(&util::read_buffer(device, &self.gpu.queue, &geometric_normals)?);
         let mut out = SurfaceBuffer::new(self.width, self.height);
         for i in 0..n as usize {
             out.covered[i] = p[4 * i + 3] > 0.5;
             out.positions[i] = Vec3::new(p[4 * i], p[4 * i + 1], p[4 * i + 2]);
             out.normals[i] = Vec3::new(nn[4 * i], nn[4 * i + 1], nn[4 * i + 2]).normalize_or(Vec3::Y);
+            out.geometric_normals[i] = Vec3::new(ng[4 * i], ng[4 * i + 1], ng[4 * i + 2]).normalize_or(out.normals[i]);
         }
         Ok(out)
     }
@@ -676,7 +693,12 @@ fn gbuffer_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool) -
                 module: &module,
                 entry_point: Some("fs_main"),
                 compilation_options: Default::default(),
-                targets: &[color(NORMAL_FORMAT), color(ALBEDO_FORMAT), color(EMISSIVE_FORMAT)],
+                targets: &[
+                    color(NORMAL_FORMAT),
+                    color(ALBEDO_FORMAT),
+                    color(EMISSIVE_FORMAT),
+                    color(GEOMETRIC_NORMAL_FORMAT),
+                ],
             }),
             multiview_mask: None,
             cache: None,

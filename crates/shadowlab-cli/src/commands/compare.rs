@@ -169,6 +169,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             light_entries.push(json!({
                 "index": r.id.0, "name": r.name, "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs,
                 "wrong_frac": s.wrong_frac, "penumbra_rmse": s.penumbra_rmse, "relevant_pixels": s.relevant_pixels,
+                "lit_darkened_frac": s.lit_darkened_frac, "shadow_brightened_frac": s.shadow_brightened_frac,
             }));
             // Shown where the reference is relevant; elsewhere the technique's value means nothing.
             let masked: Vec<f32> =
@@ -191,6 +192,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "params": spec.params.to_json(),
             "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs, "wrong_frac": s.wrong_frac,
             "penumbra_rmse": s.penumbra_rmse, "flip_mean": flip, "image_rmse": image_error,
+            "lit_darkened_frac": s.lit_darkened_frac, "shadow_brightened_frac": s.shadow_brightened_frac,
             "lights": light_entries,
             "gpu_ms": m.timing.gpu_json(),
             "cpu_ms": { "median": m.timing.cpu_median },
@@ -242,6 +244,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "noise_floor_rmse": noise_floor, "rays_per_second": truth.rays_per_second(),
         },
         "emitter_scale": args.scene.emitter_scale,
+        "origin": setup.scene.origin.to_array(),
         "lights": refs.iter().map(|r| json!({"index": r.id.0, "name": r.name, "type": setup.scene.lights[r.id.index()].type_name()})).collect::<Vec<_>>(),
         "techniques": entries,
         "path": path_json,
@@ -264,6 +267,11 @@ struct Outcome {
 
 fn fmt(v: &Value, digits: usize) -> String {
     v.as_f64().map(|x| format!("{x:.digits$}")).unwrap_or_else(|| "–".to_owned())
+}
+
+/// A fraction as a percentage with two decimals; empty when absent.
+fn percent(v: &Value) -> String {
+    v.as_f64().map(|x| format!("{:.2}%", 100.0 * x)).unwrap_or_default()
 }
 
 fn print_summary(metrics: &Value) {
@@ -312,8 +320,10 @@ fn report_html(
                 fmt(&t["rmse"], 4),
                 fmt(&t["mae"], 4),
                 fmt(&t["max_abs"], 3),
-                t["wrong_frac"].as_f64().map(|x| format!("{:.2}%", 100.0 * x)).unwrap_or_default(),
+                percent(&t["wrong_frac"]),
                 fmt(&t["penumbra_rmse"], 4),
+                percent(&t["lit_darkened_frac"]),
+                percent(&t["shadow_brightened_frac"]),
                 fmt(&t["flip_mean"], 4),
                 fmt(&t["image_rmse"], 4),
                 fmt(&t["gpu_ms"]["median"], 2),
@@ -338,6 +348,8 @@ fn report_html(
             "max |Δ|",
             "wrong",
             "penumbra RMSE",
+            "lit darkened",
+            "shadow brightened",
             "FLIP",
             "image RMSE",
             "GPU ms",
@@ -409,7 +421,7 @@ fn report_html(
 <h1>shadowlab compare: {scene} / {view}</h1>\
 <p>{w}×{h} pixels · lights: {lights} · adapter: {adapter} ({backend}, {dtype}) · reference: {samples} samples, seed {seed}, {secs:.1} s · noise floor RMSE {noise:.4}</p>\
 <h2>Which technique, at what cost, how wrong</h2>{table}\
-<p class=\"note\">Errors over relevant pixels (DESIGN.md §6): wrong = |V − V<sub>ref</sub>| &gt; 0.1; penumbra RMSE over pixels where V or V<sub>ref</sub> is in (0.02, 0.98); FLIP and image RMSE (Azri 2020's measure, over pixels with geometry) of the final image against the image lit with the reference visibility. Times are medians of {frames} frames after warm-up; ratios over <code>hard</code> hold across machines, absolute times do not (a CPU adapter is not a GPU).</p>\
+<p class=\"note\">Errors over relevant pixels (DESIGN.md §6): wrong = |V − V<sub>ref</sub>| &gt; 0.1; penumbra RMSE over the truth's penumbra, pixels where V<sub>ref</sub> is in (0.02, 0.98) (only V<sub>ref</sub> decides, so false faint shadows cannot dilute it); lit darkened = fraction with V<sub>ref</sub> = 1 and V &lt; 0.98 (acne, false shadows); shadow brightened = fraction with V<sub>ref</sub> = 0 and V &gt; 0.02 (light leaks); a missing V (NaN) counts as an error of 1; FLIP and image RMSE (Azri 2020's measure, over pixels with geometry) of the final image against the image lit with the reference visibility. Times are medians of {frames} frames after warm-up; ratios over <code>hard</code> hold across machines, absolute times do not (a CPU adapter is not a GPU).</p>\
 <h2>Quality against time</h2>{svg}\
 <h2>Images</h2>{images}\
 <h2>Visibility and error per light</h2><p class=\"note\">Error heatmaps: white exact, blue too dark (V &lt; V<sub>ref</sub>), red too bright; grey not relevant. Colour ∝ √|Δ|.</p>{per_light}\

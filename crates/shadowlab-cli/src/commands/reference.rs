@@ -3,7 +3,9 @@
 //! Primary rays are traced on the CPU too, so this runs on any machine. Written to `--out`:
 //! - `light<i>-<name>.png`: visibility as a 16-bit grey PNG (not-relevant pixels black);
 //! - `light<i>-<name>.f32` + `.json`: the same as raw little-endian f32, NaN where not relevant;
-//! - `positions.f32`, `normals.f32` (+ `.json`): the surface points used, 3 floats per pixel;
+//! - `positions.f32`, `normals.f32`, `geometric_normals.f32` (+ `.json`): the surface points used and
+//!   their shading and facet normals, 3 floats per pixel; positions are in the scene's local frame
+//!   (world = position + `origin` of `reference.json`);
 //! - `reference.json`: the settings, timings and per-light summary.
 
 use std::path::PathBuf;
@@ -69,7 +71,7 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
         w,
         h,
         3,
-        "world position xyz; NaN = background",
+        "position xyz in the scene's local frame (world = this + reference.json's origin); NaN = background",
     )?;
     write_raw_f32(
         &args.out.join("normals"),
@@ -77,11 +79,19 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
         w,
         h,
         3,
-        "unit world normal xyz; NaN = background",
+        "unit shading normal xyz, turned by the facet's facing; NaN = background",
+    )?;
+    write_raw_f32(
+        &args.out.join("geometric_normals"),
+        &flat(&surface.geometric_normals, &surface.covered),
+        w,
+        h,
+        3,
+        "unit facet normal N_g xyz, facing the camera (ray origins are offset along it); NaN = background",
     )?;
     let summary = json!({
         "scene": scene.name, "view": setup.view.name, "width": w, "height": h,
-        "samples": args.samples, "seed": args.seed,
+        "samples": args.samples, "seed": args.seed, "origin": scene.origin.to_array(),
         "seconds": result.seconds, "bvh_build_seconds": result.bvh_build.as_secs_f64(),
         "rays": result.rays, "rays_per_second": result.rays_per_second(),
         "triangles": casters.len(), "lights": light_entries,

@@ -27,17 +27,21 @@ pub struct Loaded {
 
 /// Loads `spec`: a built-in scene name with optional options (`terrain:sun=0.27`), or a path to a
 /// scene file. The result is validated; a file without views or lights gets a default of each
-/// (with a warning), so that every command can run on a bare model.
+/// (with a warning), so that every command can run on a bare model. The scene comes recentred
+/// ([`Scene::recentre`]): far from the world's origin its coordinates are local ones, and
+/// `scene.origin` says where they are.
 pub fn load_scene(spec: &str) -> Result<Loaded> {
     let path = Path::new(spec);
     if path.exists() || spec.contains(['/', '\\']) || has_scene_extension(path) {
         let mut loaded = load_file(path)?;
         add_defaults(&mut loaded);
         loaded.scene.validate().map_err(|e| e.in_file(path))?;
+        loaded.scene.recentre();
         return Ok(loaded);
     }
-    let scene = scenes::build(spec)?;
+    let mut scene = scenes::build(spec)?;
     scene.validate()?;
+    scene.recentre();
     Ok(Loaded { scene, warnings: Vec::new() })
 }
 

@@ -152,7 +152,7 @@ impl TechniqueArgs {
         };
         let specs =
             given.iter().map(|s| shadowlab::TechniqueSpec::parse(s, &self.set)).collect::<Result<Vec<_>, _>>()?;
-        shadowlab::technique::check_global_sets(&specs, &self.set)?;
+        shadowlab::registry::check_global_sets(&specs, &self.set)?;
         Ok(specs)
     }
 }

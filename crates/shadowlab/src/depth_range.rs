@@ -6,8 +6,8 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 
+use crate::context::Shared;
 use crate::frame::SurfaceInputs;
-use crate::technique::Shared;
 use crate::timing::{GpuTimer, PassKind};
 
 const SLOTS: usize = 3;

@@ -6,7 +6,7 @@ use shadowlab_core::ParamSet;
 use shadowlab_core::params::ParamDef;
 use shadowlab_core::sampling::Rng;
 
-use crate::technique::{Shared, uniform_entry};
+use crate::context::{Shared, uniform_entry};
 
 pub const MAX_TAPS: usize = 64;
 

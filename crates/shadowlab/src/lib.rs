@@ -11,11 +11,13 @@
 //!   mapping) with readbacks for the reports.
 //! - [`technique`]: the technique contract and registry; [`techniques`]: the techniques.
 
+pub mod context;
 pub mod depth_range;
 pub mod frame;
 pub mod gpu;
 pub mod gpu_scene;
 pub mod kernel;
+pub mod registry;
 pub mod renderer;
 pub mod sample_maps;
 pub mod shader;
@@ -27,6 +29,7 @@ pub mod util;
 
 pub use frame::{CameraUniform, SurfaceInputs, VisibilityLayer};
 pub use gpu::{BackendChoice, Gpu, GpuError};
+pub use registry::{TechniqueSpec, registry};
 pub use renderer::{FrameReport, Renderer, Shadows};
 pub use shadowlab_core as core;
-pub use technique::{ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueSpec, TechniqueStats, registry};
+pub use technique::{ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};

@@ -11,10 +11,12 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use shadowlab_core::{LightId, Scene, SurfaceBuffer, View};
 
+use crate::context::Shared;
 use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::{Gpu, GpuError};
 use crate::gpu_scene::{GpuScene, INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
-use crate::technique::{FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueSpec, TechniqueStats};
+use crate::registry::TechniqueSpec;
+use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueStats};
 use crate::timing::{FrameTimes, GpuTimer, PassKind};
 use crate::util;
 
@@ -543,19 +545,19 @@ fn lighting_layouts(shared: &Shared) -> (wgpu::BindGroupLayout, wgpu::BindGroupL
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("lighting group 0"),
             entries: &[
-                crate::technique::uniform_entry(0, frag),
+                crate::context::uniform_entry(0, frag),
                 tex(1, float),
                 tex(2, float),
                 tex(3, float),
                 tex(4, float),
-                crate::technique::uniform_entry(5, frag),
+                crate::context::uniform_entry(5, frag),
             ],
         })
     });
     let g1 = shared.layout("lighting group 1", || {
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("lighting group 1"),
-            entries: &[crate::technique::uniform_entry(0, frag), tex(1, float)],
+            entries: &[crate::context::uniform_entry(0, frag), tex(1, float)],
         })
     });
     let g2 = shared.layout("lighting group 2", || {
@@ -643,7 +645,7 @@ fn gbuffer_camera_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("gbuffer camera", || {
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("gbuffer camera"),
-            entries: &[crate::technique::uniform_entry(0, wgpu::ShaderStages::VERTEX)],
+            entries: &[crate::context::uniform_entry(0, wgpu::ShaderStages::VERTEX)],
         })
     })
 }
@@ -735,7 +737,7 @@ impl Renderer {
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("overlay"),
                 entries: &[
-                    crate::technique::uniform_entry(0, wgpu::ShaderStages::COMPUTE),
+                    crate::context::uniform_entry(0, wgpu::ShaderStages::COMPUTE),
                     wgpu::BindGroupLayoutEntry {
                         binding: 1,
                         visibility: wgpu::ShaderStages::COMPUTE,
@@ -753,7 +755,7 @@ impl Renderer {
             "overlay",
             include_str!("overlay.wgsl"),
             "main",
-            &[&crate::shadowmap::lookup_layout(shared), &layout, &crate::techniques::selection_layout(shared)],
+            &[&crate::shadowmap::lookup_layout(shared), &layout, &crate::shadowmap::selection_layout(shared)],
             &[],
         );
         let out = device.create_texture(&wgpu::TextureDescriptor {

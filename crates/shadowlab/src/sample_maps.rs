@@ -10,8 +10,9 @@ use glam::Vec4;
 use shadowlab_core::lightspace::{LightFrusta, ShadowView};
 use shadowlab_core::sampling::{EmitterPoint, EmitterSample};
 
+use crate::context::{Shared, storage_entry};
 use crate::shadowmap::{BiasUniform, Raster, ShadowMapArray, lookup_group};
-use crate::technique::{FrameContext, Shared, TechniqueError, storage_entry};
+use crate::technique::{FrameContext, TechniqueError};
 use crate::timing::PassKind;
 
 /// `SET_*` flags of `samples.wgsl`.

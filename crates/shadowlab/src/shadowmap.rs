@@ -7,8 +7,9 @@ use glam::Vec4;
 use shadowlab_core::lightspace::ShadowView;
 use shadowlab_core::params::ParamDef;
 
+use crate::context::Shared;
 use crate::gpu_scene::{DrawGroup, INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
-use crate::technique::{FrameContext, Shared};
+use crate::technique::FrameContext;
 use crate::timing::PassKind;
 
 pub const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -391,8 +392,8 @@ pub fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
                     },
                     count: None,
                 },
-                crate::technique::storage_entry(2, c, true),
-                crate::technique::uniform_entry(3, c),
+                crate::context::storage_entry(2, c, true),
+                crate::context::uniform_entry(3, c),
             ];
             if shared.hardware_compare {
                 entries.push(wgpu::BindGroupLayoutEntry {
@@ -429,6 +430,15 @@ pub fn lookup_group(shared: &Shared, maps: &ShadowMapArray, params: &wgpu::Buffe
     })
 }
 
+pub fn selection_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("selection", || {
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("selection"),
+            entries: &[crate::context::uniform_entry(0, wgpu::ShaderStages::COMPUTE)],
+        })
+    })
+}
+
 /// `selection.wgsl`'s uniform for a single map (or cube): one "split" covering every depth.
 pub fn single_selection(shared: &Shared) -> wgpu::BindGroup {
     let mut data = [0f32; 24];
@@ -437,7 +447,7 @@ pub fn single_selection(shared: &Shared) -> wgpu::BindGroup {
     let buffer = crate::util::uniform_buffer(&shared.gpu.device, "single selection", bytemuck::cast_slice(&data));
     shared.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("single selection"),
-        layout: &crate::techniques::selection_layout(shared),
+        layout: &selection_layout(shared),
         entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
     })
 }

@@ -29,7 +29,7 @@ fn translated(scene: &Scene, t: Vec3) -> Scene {
 
 /// Pooled wrong fraction (|Δ| > 0.1) of `spec` over the lights it supports.
 fn wrong_frac(gpu: &shadowlab::Gpu, scene: &Scene, spec: &str) -> Option<f64> {
-    let info = shadowlab::technique::find(spec).unwrap();
+    let info = shadowlab::registry::find(spec).unwrap();
     let lights: Vec<LightId> =
         (0..scene.lights.len() as u32).map(LightId).filter(|l| info.supports(&scene.lights[l.index()])).collect();
     if lights.is_empty() {

@@ -13,9 +13,10 @@ use shadowlab_core::params::ParamDef;
 use shadowlab_core::{Light, ParamSet};
 
 use super::map_lookup::MapLookup;
+use crate::context::Shared;
 use crate::kernel;
 use crate::shadowmap::lookup_layout;
-use crate::technique::{ShadowTechnique, Shared, TechniqueError, TechniqueInfo};
+use crate::technique::{ShadowTechnique, TechniqueError, TechniqueInfo};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "blurred",

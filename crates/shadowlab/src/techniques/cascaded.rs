@@ -21,13 +21,13 @@ use shadowlab_core::lightspace::ShadowView;
 use shadowlab_core::params::ParamDef;
 use shadowlab_core::{Light, LightKind, ParamSet};
 
+use crate::context::Shared;
 use crate::depth_range::DepthRange;
 use crate::frame::VisibilityLayer;
 use crate::kernel;
-use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
+use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout, selection_layout};
 use crate::technique::{
-    FrameContext, MapAnalysis, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats,
-    dispatch_resolve, uniform_entry,
+    FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
 };
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -85,15 +85,6 @@ struct State {
     selection_group: wgpu::BindGroup,
     bytes: u64,
     draws: u32,
-}
-
-pub fn selection_layout(shared: &Shared) -> wgpu::BindGroupLayout {
-    shared.layout("selection", || {
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("selection"),
-            entries: &[uniform_entry(0, wgpu::ShaderStages::COMPUTE)],
-        })
-    })
 }
 
 /// The cascade settings of a `cascaded` parameter set (or of `hard` / `pcf`, which are one unfocused,

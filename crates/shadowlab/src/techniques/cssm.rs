@@ -43,10 +43,11 @@ use shadowlab_core::sampling::{EmitterPoint, EmitterSample, SamplePattern, emitt
 use shadowlab_core::{Aabb, Light, ParamSet, View};
 
 use super::sampled::{PATTERN, sample_frusta, sample_pipelines};
+use crate::context::Shared;
 use crate::frame::VisibilityLayer;
 use crate::sample_maps::{self, SET_FIRST, SET_PCF, SET_SHARED_LAYERS, SampleMaps, SetConfig, SetUniform};
 use crate::shadowmap::{CONSTANT_BIAS, FACES, FaceMode, NORMAL_OFFSET, Raster, SLOPE_BIAS};
-use crate::technique::{FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats};
+use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
 
 /// Most cascades.
 const MAX_CASCADES: usize = 4;

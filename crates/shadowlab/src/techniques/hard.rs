@@ -12,8 +12,9 @@
 use shadowlab_core::{Light, ParamSet};
 
 use super::map_lookup::MapLookup;
+use crate::context::Shared;
 use crate::shadowmap::lookup_layout;
-use crate::technique::{ShadowTechnique, Shared, TechniqueError, TechniqueInfo};
+use crate::technique::{ShadowTechnique, TechniqueError, TechniqueInfo};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "hard",

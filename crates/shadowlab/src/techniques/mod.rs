@@ -14,7 +14,7 @@ mod volumes;
 
 use crate::technique::TechniqueInfo;
 
-pub use cascaded::{cascade_settings, selection_layout};
+pub use cascaded::cascade_settings;
 
 /// Every light type.
 pub(crate) const ALL_LIGHTS: &[&str] = &["point", "spot", "directional", "rect"];

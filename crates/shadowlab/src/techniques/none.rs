@@ -2,9 +2,10 @@
 
 use shadowlab_core::{Light, ParamSet};
 
+use crate::context::Shared;
 use crate::frame::VisibilityLayer;
 use crate::technique::{
-    FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+    FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
 };
 
 pub const INFO: TechniqueInfo = TechniqueInfo {

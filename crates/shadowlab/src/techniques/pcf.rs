@@ -7,9 +7,10 @@
 use shadowlab_core::{Light, ParamSet};
 
 use super::map_lookup::MapLookup;
+use crate::context::Shared;
 use crate::kernel;
 use crate::shadowmap::lookup_layout;
-use crate::technique::{ShadowTechnique, Shared, TechniqueError, TechniqueInfo};
+use crate::technique::{ShadowTechnique, TechniqueError, TechniqueInfo};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "pcf",

@@ -17,9 +17,10 @@ use shadowlab_core::params::ParamDef;
 use shadowlab_core::{EmitterExtent, Light, ParamSet};
 
 use super::map_lookup::MapLookup;
+use crate::context::{Shared, uniform_entry};
 use crate::kernel;
 use crate::shadowmap::lookup_layout;
-use crate::technique::{ShadowTechnique, Shared, TechniqueError, TechniqueInfo, uniform_entry};
+use crate::technique::{ShadowTechnique, TechniqueError, TechniqueInfo};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "pcss",

@@ -20,12 +20,13 @@ use shadowlab_core::params::ParamDef;
 use shadowlab_core::sampling::{EmitterSample, SamplePattern, emitter_points_with};
 use shadowlab_core::{Light, LightKind, ParamSet};
 
+use crate::context::Shared;
 use crate::frame::VisibilityLayer;
 use crate::sample_maps::{
     self, SET_FIRST, SET_PCF, SET_SHARED_LAYERS, SampleMaps, SetConfig, SetUniform, uniform_layout,
 };
 use crate::shadowmap::{CONSTANT_BIAS, FACES, FaceMode, NORMAL_OFFSET, Raster, SLOPE_BIAS, lookup_layout};
-use crate::technique::{FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats};
+use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "sampled",

@@ -21,11 +21,11 @@ use shadowlab_core::smoothies::{SmoothieVertex, smoothies};
 use shadowlab_core::volumes::LightSource;
 use shadowlab_core::{EmitterExtent, Light, ParamSet, Scene, Topology};
 
+use crate::context::{Shared, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::shadowmap::{LightMap, SHADOW_FORMAT, lookup_layout, matrices_layout};
 use crate::technique::{
-    FrameContext, MapAnalysis, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats,
-    dispatch_resolve, uniform_entry,
+    FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
 };
 use crate::timing::PassKind;
 

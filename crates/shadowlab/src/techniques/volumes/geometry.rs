@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Affine3A, Mat4, Vec3, Vec4};
 use shadowlab_core::{Scene, Topology};
 
-use crate::technique::{Shared, storage_entry};
+use crate::context::{Shared, storage_entry};
 
 /// One mesh's place in the shared topology buffers.
 #[derive(Debug, Clone, Copy)]

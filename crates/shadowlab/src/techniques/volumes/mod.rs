@@ -36,11 +36,10 @@ use shadowlab_core::{Light, ParamSet, Role};
 
 use self::geometry::{Caster, CasterRecord, VolumeTopology};
 use self::plan::{FrameView, Method, Mode, SamplePlan, Settings};
+use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::shadowmap::{LightMap, lookup_layout};
-use crate::technique::{
-    FrameContext, ShadowTechnique, Shared, TechniqueError, TechniqueInfo, TechniqueStats, storage_entry, uniform_entry,
-};
+use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
 use crate::timing::PassKind;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {

@@ -1,0 +1,215 @@
+//! The GPU context every technique shares: the device, samplers, bind-group layouts and a cache of
+//! compiled pipelines and scene resources. It sits below the techniques and knows none of them.
+
+use std::any::Any;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use crate::frame::{SurfaceInputs, VisibilityLayer};
+use crate::gpu::Gpu;
+
+/// Resources shared by all techniques: samplers, layouts and a cache of compiled pipelines (so
+/// four lights with the same technique compile its shaders once).
+pub struct Shared {
+    pub gpu: Gpu,
+    /// Group 0 of visibility-resolve shaders (`shaders/resolve.wgsl`).
+    pub resolve_layout: wgpu::BindGroupLayout,
+    /// Shadow maps are read through hardware comparison samplers (all backends but GL).
+    pub hardware_compare: bool,
+    /// Comparison samplers for shadow maps (reversed Z: lit when reference ≥ stored).
+    pub compare_nearest: wgpu::Sampler,
+    pub compare_linear: wgpu::Sampler,
+    render_pipelines: Mutex<HashMap<String, wgpu::RenderPipeline>>,
+    compute_pipelines: Mutex<HashMap<String, wgpu::ComputePipeline>>,
+    layouts: Mutex<HashMap<String, wgpu::BindGroupLayout>>,
+    resources: Mutex<HashMap<String, Arc<dyn Any + Send + Sync>>>,
+}
+
+impl Shared {
+    pub fn new(gpu: &Gpu) -> Self {
+        let device = &gpu.device;
+        let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("resolve group 0"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::COMPUTE),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    // Depth read as an unfilterable float: GL cannot `textureLoad` depth textures.
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                uniform_entry(3, wgpu::ShaderStages::COMPUTE),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: crate::frame::VISIBILITY_FORMAT,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let compare = |filter| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("shadow compare"),
+                address_mode_u: wgpu::AddressMode::ClampToEdge,
+                address_mode_v: wgpu::AddressMode::ClampToEdge,
+                mag_filter: filter,
+                min_filter: filter,
+                compare: Some(wgpu::CompareFunction::GreaterEqual),
+                ..Default::default()
+            })
+        };
+        Self {
+            gpu: gpu.clone(),
+            resolve_layout,
+            // wgpu's GL backend returns 0 from comparison samples of depth arrays (seen on Mesa).
+            hardware_compare: gpu.adapter.backend != "gl",
+            compare_nearest: compare(wgpu::FilterMode::Nearest),
+            compare_linear: compare(wgpu::FilterMode::Linear),
+            render_pipelines: Mutex::default(),
+            compute_pipelines: Mutex::default(),
+            layouts: Mutex::default(),
+            resources: Mutex::default(),
+        }
+    }
+
+    /// The group-0 bind group of a resolve shader writing `out`.
+    pub fn resolve_bind_group(
+        &self,
+        surface: &SurfaceInputs,
+        light: &wgpu::Buffer,
+        out: &VisibilityLayer,
+    ) -> wgpu::BindGroup {
+        self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("resolve group 0"),
+            layout: &self.resolve_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: surface.camera_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&surface.depth) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&surface.normal) },
+                wgpu::BindGroupEntry { binding: 3, resource: light.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&out.view) },
+            ],
+        })
+    }
+
+    /// A render pipeline from the cache, built by `make` the first time `key` is asked for.
+    pub fn render_pipeline(&self, key: &str, make: impl FnOnce() -> wgpu::RenderPipeline) -> wgpu::RenderPipeline {
+        let mut cache = self.render_pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        cache.entry(key.to_owned()).or_insert_with(make).clone()
+    }
+
+    pub fn compute_pipeline(&self, key: &str, make: impl FnOnce() -> wgpu::ComputePipeline) -> wgpu::ComputePipeline {
+        let mut cache = self.compute_pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        cache.entry(key.to_owned()).or_insert_with(make).clone()
+    }
+
+    pub fn layout(&self, key: &str, make: impl FnOnce() -> wgpu::BindGroupLayout) -> wgpu::BindGroupLayout {
+        let mut cache = self.layouts.lock().unwrap_or_else(|e| e.into_inner());
+        cache.entry(key.to_owned()).or_insert_with(make).clone()
+    }
+
+    /// A scene resource shared by every light's technique (GPU copies of mesh topology, say),
+    /// built by `make` the first time `key` is asked for.
+    pub fn resource<T: Any + Send + Sync>(&self, key: &str, make: impl FnOnce() -> T) -> Arc<T> {
+        let mut cache = self.resources.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(found) = cache.get(key).and_then(|r| Arc::clone(r).downcast::<T>().ok()) {
+            return found;
+        }
+        let made = Arc::new(make());
+        cache.insert(key.to_owned(), Arc::clone(&made) as Arc<dyn Any + Send + Sync>);
+        made
+    }
+
+    /// A compute pipeline for a resolve shader: group 0 is the resolve layout, `extra` the
+    /// technique's own groups.
+    pub fn resolve_pipeline(
+        &self,
+        key: &str,
+        source: &str,
+        entry: &str,
+        extra: &[&wgpu::BindGroupLayout],
+        constants: &[(&str, f64)],
+    ) -> wgpu::ComputePipeline {
+        self.resolve_pipeline_with(key, source, entry, extra, constants, &[])
+    }
+
+    /// [`Shared::resolve_pipeline`] with `// #ifdef` names of its own (`key` must tell them apart).
+    pub fn resolve_pipeline_with(
+        &self,
+        key: &str,
+        source: &str,
+        entry: &str,
+        extra: &[&wgpu::BindGroupLayout],
+        constants: &[(&str, f64)],
+        defines: &[&str],
+    ) -> wgpu::ComputePipeline {
+        self.compute_pipeline(key, || {
+            let device = &self.gpu.device;
+            let mut all: Vec<&str> = defines.to_vec();
+            if self.hardware_compare {
+                all.push("HARDWARE_COMPARE");
+            }
+            let module = crate::shader::module_with(device, key, source, &all);
+            let mut layouts: Vec<Option<&wgpu::BindGroupLayout>> = vec![Some(&self.resolve_layout)];
+            layouts.extend(extra.iter().map(|l| Some(*l)));
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(key),
+                bind_group_layouts: &layouts,
+                immediate_size: 0,
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(key),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+                cache: None,
+            })
+        })
+    }
+}
+
+pub fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub fn storage_entry(binding: u32, visibility: wgpu::ShaderStages, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}

@@ -34,19 +34,34 @@ macro_rules! id_index {
 id_index!(MeshId, MaterialId, LightId);
 
 /// Whether something may change between frames. Static things are what caches may keep
-/// (Toromanoff §II: semi-static scenes).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// (Toromanoff §II: semi-static scenes); dynamic ones are drawn over the cached static part each
+/// frame they reach; a temporary object is one being dragged (Toromanoff §3.3): kept out of every
+/// cache and shadowed by a pass of its own until it is released.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub enum Mobility {
     #[default]
     Static,
     Dynamic,
+    Temporary,
 }
 
 impl Mobility {
+    pub const NAMES: &[&str] = &["static", "dynamic", "temporary"];
+
     pub fn name(self) -> &'static str {
         match self {
             Self::Static => "static",
             Self::Dynamic => "dynamic",
+            Self::Temporary => "temporary",
+        }
+    }
+
+    pub fn parse(text: &str) -> Option<Self> {
+        match text {
+            "static" => Some(Self::Static),
+            "dynamic" => Some(Self::Dynamic),
+            "temporary" => Some(Self::Temporary),
+            _ => None,
         }
     }
 }

@@ -135,8 +135,8 @@ pub fn embedded_visibility(
         });
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, Some(&camera_group), &[]);
-        shadows.gpu_scene.bind(&mut pass);
-        shadows.gpu_scene.draw(&mut pass, shadows.gpu_scene.groups.iter());
+        shadows.gpu_scene().bind(&mut pass);
+        shadows.gpu_scene().draw(&mut pass, shadows.gpu_scene().groups.iter());
     }
 
     // The surface shadowlab shades: the application's buffers and camera (reversed_z = false).
@@ -153,9 +153,9 @@ pub fn embedded_visibility(
     shadows.record(&mut encoder, &surface, &mut timer).expect("shadows recorded");
     queue.submit([encoder.finish()]);
 
-    // The application would now bind `shadows.lights[k].layer.view` in its lighting pass; here we
+    // The application would now bind `shadows.layer(light).view` in its lighting pass; here we
     // read the layer back.
-    let layer = &shadows.lights.iter().find(|s| s.light == light).expect("the shadowed light").layer;
+    let layer = shadows.layer(light).expect("the shadowed light");
     shadowlab::util::f32s(&shadowlab::util::read_texture(device, queue, &layer.texture, 4).expect("readback"))
 }
 

@@ -1,9 +1,13 @@
 //! The scene on the GPU: one vertex and one index buffer for all meshes, an instance buffer, and
 //! draw groups that batch the instances of a mesh into one instanced draw.
+//!
+//! Meshes are uploaded once. Instances change: [`GpuScene::sync`] rewrites the instance buffer in
+//! place after edits (moves, additions, removals, mobility changes), regrouping the draws, which are
+//! split by mobility so that cached static maps draw the static casters only.
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec4};
-use shadowlab_core::{Aabb, Scene, Topology};
+use shadowlab_core::{Aabb, Mobility, Scene, Topology};
 use wgpu::util::DeviceExt;
 
 /// Per-vertex data (`@location(0)` position, `@location(1)` normal).
@@ -64,6 +68,7 @@ pub struct DrawGroup {
     /// The transform mirrors (negative determinant): front faces wind clockwise.
     pub mirrored: bool,
     pub casts_shadows: bool,
+    pub mobility: Mobility,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -78,13 +83,21 @@ pub struct GpuScene {
     pub indices: wgpu::Buffer,
     pub instances: wgpu::Buffer,
     pub meshes: Vec<MeshRange>,
+    /// Whether each mesh is closed (culling of its draw group).
+    closed: Vec<bool>,
     /// All groups; those with `casts_shadows` are the shadow casters.
     pub groups: Vec<DrawGroup>,
+    /// Bounds of every instance but temporary ones (what light views are fitted to).
     pub bounds: Aabb,
     pub caster_bounds: Aabb,
     pub triangles: u64,
     pub bytes: u64,
+    /// Instances the instance buffer has room for.
+    capacity: usize,
 }
+
+/// The draw-group key of an instance: casters first, then by mobility, mesh, culling and winding.
+type GroupKey = (bool, Mobility, usize, Sidedness, bool);
 
 impl GpuScene {
     pub fn new(device: &wgpu::Device, scene: &Scene) -> Self {
@@ -107,21 +120,88 @@ impl GpuScene {
             indices.extend(m.triangles.iter().flatten());
             closed.push(Topology::build(m).report().is_closed());
         }
-        // Order instances so that each (mesh, sidedness, mirror, caster) group is contiguous.
-        let key = |i: usize| {
-            let inst = &scene.instances[i];
-            let double = scene.material(inst.material).double_sided;
-            let sided = if double {
-                Sidedness::DoubleSided
-            } else if closed[inst.mesh.index()] {
-                Sidedness::Closed
-            } else {
-                Sidedness::Open
-            };
-            (!inst.casts_shadows, inst.mesh.index(), sided, inst.transform.matrix3.determinant() < 0.0)
+        let init = |label: &str, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
+        let vb = init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX);
+        let ib = init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX);
+        let capacity = scene.instances.len().max(1);
+        let instances = instance_buffer(device, capacity);
+        let mut gpu_scene = Self {
+            vertices: vb,
+            indices: ib,
+            instances,
+            meshes,
+            closed,
+            groups: Vec::new(),
+            bounds: Aabb::EMPTY,
+            caster_bounds: Aabb::EMPTY,
+            triangles: 0,
+            bytes: 0,
+            capacity,
+        };
+        let (data, groups) = gpu_scene.layout(scene);
+        // Written at creation (mapped), so that the first frame needs no queue write.
+        gpu_scene.instances = init(
+            "instances",
+            bytemuck::cast_slice(&padded(data, capacity)),
+            wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        );
+        gpu_scene.groups = groups;
+        gpu_scene.refresh_counts(scene);
+        gpu_scene
+    }
+
+    /// Brings the instance buffer and draw groups up to date with `scene` (after edits): the buffer
+    /// is rewritten in place (reallocated only when the instances outgrow it); meshes stay.
+    pub fn sync(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) {
+        let (data, groups) = self.layout(scene);
+        if data.len() > self.capacity {
+            self.capacity = data.len().next_power_of_two();
+            self.instances = instance_buffer(device, self.capacity);
+        }
+        if !data.is_empty() {
+            queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&data));
+        }
+        self.groups = groups;
+        self.refresh_counts(scene);
+    }
+
+    fn refresh_counts(&mut self, scene: &Scene) {
+        let permanent = |i: &shadowlab_core::Instance| i.mobility != Mobility::Temporary;
+        let mesh_bounds: Vec<Aabb> = scene.meshes.iter().map(|m| m.bounds()).collect();
+        let (mut all, mut casters) = (Aabb::EMPTY, Aabb::EMPTY);
+        for i in scene.instances.iter().filter(|i| permanent(i)) {
+            let b = mesh_bounds.get(i.mesh.index()).map_or(Aabb::EMPTY, |b| b.transformed(&i.transform));
+            all = all.union(&b);
+            if i.casts_shadows {
+                casters = casters.union(&b);
+            }
+        }
+        self.bounds = all;
+        self.caster_bounds = casters;
+        self.triangles = scene.stats().triangles as u64;
+        self.bytes = self.vertices.size() + self.indices.size() + self.instances.size();
+    }
+
+    fn key(&self, scene: &Scene, i: usize) -> GroupKey {
+        let inst = &scene.instances[i];
+        let double = scene.material(inst.material).double_sided;
+        let sided = if double {
+            Sidedness::DoubleSided
+        } else if self.closed[inst.mesh.index()] {
+            Sidedness::Closed
+        } else {
+            Sidedness::Open
+        };
+        (!inst.casts_shadows, inst.mobility, inst.mesh.index(), sided, inst.transform.matrix3.determinant() < 0.0)
+    }
+
+    /// Instance data in draw order, and the groups over it.
+    fn layout(&self, scene: &Scene) -> (Vec<InstanceData>, Vec<DrawGroup>) {
+        // Order instances so that each (caster, mobility, mesh, sidedness, mirror) group is contiguous.
         let mut order: Vec<usize> = (0..scene.instances.len()).collect();
-        order.sort_by_key(|&i| key(i));
+        order.sort_by_key(|&i| self.key(scene, i));
         let mut data = Vec::with_capacity(order.len());
         let mut groups: Vec<DrawGroup> = Vec::new();
         for (slot, &i) in order.iter().enumerate() {
@@ -139,12 +219,13 @@ impl GpuScene {
                 albedo_specular: mat.base_color.extend(mat.specular).into(),
                 material: Vec4::new(mat.shininess, mat.emissive.x, mat.emissive.y, mat.emissive.z).into(),
             });
-            let (not_caster, mesh, sidedness, mirrored) = key(i);
+            let (not_caster, mobility, mesh, sidedness, mirrored) = self.key(scene, i);
             match groups.last_mut() {
                 Some(g)
                     if g.mesh == mesh
                         && g.sidedness == sidedness
                         && g.mirrored == mirrored
+                        && g.mobility == mobility
                         && g.casts_shadows != not_caster =>
                 {
                     g.instances.end = slot as u32 + 1;
@@ -155,27 +236,16 @@ impl GpuScene {
                     sidedness,
                     mirrored,
                     casts_shadows: !not_caster,
+                    mobility,
                 }),
             }
         }
-        let init = |label: &str, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-        };
-        let vb = init("vertices", bytemuck::cast_slice(&vertices), wgpu::BufferUsages::VERTEX);
-        let ib = init("indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX);
-        let instances = init("instances", bytemuck::cast_slice(&data), wgpu::BufferUsages::VERTEX);
-        let bytes = vb.size() + ib.size() + instances.size();
-        Self {
-            vertices: vb,
-            indices: ib,
-            instances,
-            meshes,
-            groups,
-            bounds: scene.bounds(),
-            caster_bounds: scene.caster_bounds(),
-            triangles: scene.stats().triangles as u64,
-            bytes,
-        }
+        (data, groups)
+    }
+
+    /// The caster groups of the given mobilities.
+    pub fn casters<'g>(&'g self, classes: &'g [Mobility]) -> impl Iterator<Item = &'g DrawGroup> + 'g {
+        self.groups.iter().filter(move |g| g.casts_shadows && classes.contains(&g.mobility))
     }
 
     /// Issues the draws of `groups` (vertex and instance buffers must be bound at slots 0 and 1).
@@ -192,4 +262,19 @@ impl GpuScene {
         pass.set_vertex_buffer(1, self.instances.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
     }
+}
+
+fn instance_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("instances"),
+        size: (capacity.max(1) * std::mem::size_of::<InstanceData>()) as u64,
+        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// `data` padded with zeroed instances up to `capacity`.
+fn padded(mut data: Vec<InstanceData>, capacity: usize) -> Vec<InstanceData> {
+    data.resize(capacity.max(1), InstanceData::zeroed());
+    data
 }

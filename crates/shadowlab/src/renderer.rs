@@ -1,9 +1,6 @@
-//! The deferred frame of DESIGN.md §2: G-buffer, shadows per light (a technique each), additive
-//! lighting and tone mapping, with readbacks for the reference and the reports.
-//!
-//! [`Shadows`] is the part an application embeds: it needs only a [`SurfaceInputs`] (depth,
-//! normals, camera) and produces a [`VisibilityLayer`] per light. [`Renderer`] wraps it with
-//! shadowlab's own G-buffer and lighting.
+//! The deferred frame of DESIGN.md §2: G-buffer, shadows per light (a technique each, through the
+//! embedded [`Shadows`]), additive lighting and tone mapping, with readbacks for the reference and
+//! the reports.
 
 use std::time::Instant;
 
@@ -12,109 +9,15 @@ use glam::{Vec3, Vec4};
 use shadowlab_core::{LightId, Scene, SurfaceBuffer, View};
 
 use crate::context::Shared;
-use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VisibilityLayer};
+use crate::frame::{CameraUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::{Gpu, GpuError};
-use crate::gpu_scene::{GpuScene, INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
+use crate::gpu_scene::{INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
+use crate::live::{Applied, Edit, EditError, Work};
 use crate::registry::TechniqueSpec;
-use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueStats};
+use crate::shadows::Shadows;
+use crate::technique::TechniqueError;
 use crate::timing::{FrameTimes, GpuTimer, PassKind};
 use crate::util;
-
-/// One light's shadowing: its technique and its visibility layer.
-pub struct LightShadow {
-    pub light: LightId,
-    pub spec: String,
-    pub technique: Box<dyn ShadowTechnique>,
-    pub layer: VisibilityLayer,
-    pub light_buffer: wgpu::Buffer,
-}
-
-/// Shadows for every light of a scene over one surface: what an application embeds.
-pub struct Shadows {
-    pub shared: Shared,
-    pub gpu_scene: GpuScene,
-    pub scene: Scene,
-    pub lights: Vec<LightShadow>,
-    frame_index: u64,
-}
-
-impl Shadows {
-    /// Uploads the scene. No light is shadowed until [`Shadows::set_technique`].
-    pub fn new(gpu: &Gpu, scene: Scene) -> Self {
-        let shared = Shared::new(gpu);
-        let gpu_scene = GpuScene::new(&gpu.device, &scene);
-        Self { shared, gpu_scene, scene, lights: Vec::new(), frame_index: 0 }
-    }
-
-    /// Shadows `light` with the technique of `spec` (replacing its previous one), writing a layer
-    /// of `width × height`.
-    pub fn set_technique(
-        &mut self,
-        light: LightId,
-        spec: &TechniqueSpec,
-        width: u32,
-        height: u32,
-    ) -> Result<(), TechniqueError> {
-        let l = self.scene.lights.get(light.index()).ok_or_else(|| TechniqueError::Failed {
-            id: spec.info.id.to_owned(),
-            message: format!("no light {}", light.0),
-        })?;
-        let technique = spec.create(&self.shared, l)?;
-        let device = &self.shared.gpu.device;
-        let light_buffer = util::uniform_buffer(device, &l.name, bytemuck::bytes_of(&LightUniform::new(l)));
-        let layer = VisibilityLayer::new(device, width, height, &format!("visibility {}", l.name));
-        self.lights.retain(|s| s.light != light);
-        self.lights.push(LightShadow { light, spec: spec.spec.clone(), technique, layer, light_buffer });
-        self.lights.sort_by_key(|s| s.light);
-        Ok(())
-    }
-
-    /// Records every light's prepare and resolve into `encoder`.
-    pub fn record(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        surface: &SurfaceInputs,
-        timer: &mut GpuTimer,
-    ) -> Result<(), TechniqueError> {
-        let gpu = self.shared.gpu.clone();
-        for s in &mut self.lights {
-            let mut ctx = FrameContext {
-                gpu: &gpu,
-                shared: &self.shared,
-                encoder,
-                scene: &self.scene,
-                gpu_scene: &self.gpu_scene,
-                surface,
-                light: &self.scene.lights[s.light.index()],
-                light_id: s.light,
-                light_buffer: &s.light_buffer,
-                timer,
-                frame_index: self.frame_index,
-            };
-            s.technique.prepare(&mut ctx)?;
-            s.technique.resolve(&mut ctx, &s.layer);
-        }
-        self.frame_index += 1;
-        Ok(())
-    }
-
-    /// Memory, passes and draws of all techniques together.
-    pub fn stats(&self) -> TechniqueStats {
-        self.lights.iter().fold(TechniqueStats::default(), |a, s| {
-            let t = s.technique.stats();
-            let light = &self.scene.lights[s.light.index()].name;
-            let mut extra = a.extra;
-            extra.extend(t.extra.into_iter().map(|(k, v)| (format!("{light}: {k}"), v)));
-            TechniqueStats {
-                memory_bytes: a.memory_bytes + t.memory_bytes + s.layer.bytes(),
-                passes: a.passes + t.passes,
-                draws: a.draws + t.draws,
-                triangles: a.triangles + t.triangles,
-                extra,
-            }
-        })
-    }
-}
 
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -162,6 +65,8 @@ pub struct FrameReport {
     pub gpu: Option<FrameTimes>,
     /// Wall-clock milliseconds from recording to the GPU being done (includes CPU recording).
     pub cpu_ms: f64,
+    /// What the shadows re-rendered this frame.
+    pub work: Work,
 }
 
 /// The full deferred renderer: G-buffer, [`Shadows`], lighting, tone mapping.
@@ -170,7 +75,16 @@ pub struct Renderer {
     pub shadows: Shadows,
     pub width: u32,
     pub height: u32,
-    pub surface: SurfaceInputs,
+    targets: Targets,
+    environment: wgpu::Buffer,
+    light_layout: wgpu::BindGroupLayout,
+    timer: GpuTimer,
+    pub exposure: f32,
+}
+
+/// The G-buffer and output targets of one size, with the bind groups over them.
+struct Targets {
+    surface: SurfaceInputs,
     depth: wgpu::Texture,
     normal: wgpu::Texture,
     albedo: wgpu::Texture,
@@ -178,44 +92,24 @@ pub struct Renderer {
     geometric_normal: wgpu::Texture,
     hdr: wgpu::Texture,
     output: wgpu::Texture,
-    environment: wgpu::Buffer,
     lighting_group: wgpu::BindGroup,
     tonemap_group: wgpu::BindGroup,
-    light_layout: wgpu::BindGroupLayout,
-    timer: GpuTimer,
-    pub exposure: f32,
 }
 
-impl Renderer {
-    pub fn new(gpu: &Gpu, scene: Scene, view: &View, width: u32, height: u32) -> Self {
-        let device = &gpu.device;
-        let depth = target(device, "depth", DEPTH_FORMAT, width, height, wgpu::TextureUsages::empty());
-        let normal = target(device, "normal", NORMAL_FORMAT, width, height, wgpu::TextureUsages::empty());
-        let albedo = target(device, "albedo", ALBEDO_FORMAT, width, height, wgpu::TextureUsages::empty());
-        let emissive = target(device, "emissive", EMISSIVE_FORMAT, width, height, wgpu::TextureUsages::empty());
-        let geometric_normal =
-            target(device, "geometric normal", GEOMETRIC_NORMAL_FORMAT, width, height, wgpu::TextureUsages::empty());
-        let hdr = target(device, "hdr", HDR_FORMAT, width, height, wgpu::TextureUsages::empty());
+impl Targets {
+    fn new(shared: &Shared, environment: &wgpu::Buffer, camera: CameraUniform, width: u32, height: u32) -> Self {
+        let device = &shared.gpu.device;
+        let none = wgpu::TextureUsages::empty();
+        let depth = target(device, "depth", DEPTH_FORMAT, width, height, none);
+        let normal = target(device, "normal", NORMAL_FORMAT, width, height, none);
+        let albedo = target(device, "albedo", ALBEDO_FORMAT, width, height, none);
+        let emissive = target(device, "emissive", EMISSIVE_FORMAT, width, height, none);
+        let geometric_normal = target(device, "geometric normal", GEOMETRIC_NORMAL_FORMAT, width, height, none);
+        let hdr = target(device, "hdr", HDR_FORMAT, width, height, none);
         let output = target(device, "output", OUTPUT_FORMAT, width, height, wgpu::TextureUsages::COPY_SRC);
-        let surface = SurfaceInputs::new(
-            device,
-            depth.create_view(&Default::default()),
-            normal.create_view(&Default::default()),
-            CameraUniform::from_view(view, width, height),
-            width,
-            height,
-        );
-        let environment = util::uniform_buffer(
-            device,
-            "environment",
-            bytemuck::bytes_of(&EnvironmentUniform {
-                ambient: scene.ambient.extend(1.0),
-                background: BACKGROUND.extend(1.0),
-            }),
-        );
-        let shadows = Shadows::new(gpu, scene);
-        let layouts = lighting_layouts(&shadows.shared);
         let view_of = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let surface = SurfaceInputs::new(device, view_of(&depth), view_of(&normal), camera, width, height);
+        let layouts = lighting_layouts(shared);
         let lighting_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lighting"),
             layout: &layouts.0,
@@ -236,34 +130,71 @@ impl Renderer {
                 resource: wgpu::BindingResource::TextureView(&view_of(&hdr)),
             }],
         });
+        Self { surface, depth, normal, albedo, emissive, geometric_normal, hdr, output, lighting_group, tonemap_group }
+    }
+}
+
+impl Renderer {
+    pub fn new(gpu: &Gpu, scene: Scene, view: &View, width: u32, height: u32) -> Self {
+        let environment = util::uniform_buffer(
+            &gpu.device,
+            "environment",
+            bytemuck::bytes_of(&EnvironmentUniform {
+                ambient: scene.ambient.extend(1.0),
+                background: BACKGROUND.extend(1.0),
+            }),
+        );
+        let shadows = Shadows::new(gpu, scene);
+        let layouts = lighting_layouts(shadows.shared());
+        let targets =
+            Targets::new(shadows.shared(), &environment, CameraUniform::from_view(view, width, height), width, height);
         Self {
             gpu: gpu.clone(),
             timer: GpuTimer::new(gpu),
             shadows,
             width,
             height,
-            surface,
-            depth,
-            normal,
-            albedo,
-            emissive,
-            geometric_normal,
-            hdr,
-            output,
+            targets,
             environment,
-            lighting_group,
-            tonemap_group,
             light_layout: layouts.1,
             exposure: 1.0,
         }
     }
 
+    /// The surface the shadows are computed on (depth, normals, camera).
+    pub fn surface(&self) -> &SurfaceInputs {
+        &self.targets.surface
+    }
+
+    /// Applies a scene edit between frames (see [`Shadows::apply`]).
+    pub fn apply(&mut self, edit: Edit) -> Result<Applied, EditError> {
+        self.shadows.apply(edit)
+    }
+
+    /// Resizes the output: the G-buffer, the image and every light's visibility layer.
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), EditError> {
+        self.shadows.resize(width, height)?;
+        let camera = self.targets.surface.camera;
+        // Keep the camera, with the new aspect ratio.
+        let view = camera.view();
+        self.width = width;
+        self.height = height;
+        self.targets = Targets::new(
+            self.shadows.shared(),
+            &self.environment,
+            CameraUniform::from_view(&view, width, height),
+            width,
+            height,
+        );
+        Ok(())
+    }
+
     pub fn scene(&self) -> &Scene {
-        &self.shadows.scene
+        self.shadows.scene()
     }
 
     pub fn set_view(&mut self, view: &View) {
-        self.surface.set_camera(&self.gpu.queue, CameraUniform::from_view(view, self.width, self.height));
+        self.targets.surface.set_camera(&self.gpu.queue, CameraUniform::from_view(view, self.width, self.height));
     }
 
     /// Shadows `light` with `spec`.
@@ -278,7 +209,7 @@ impl Renderer {
         let device = self.gpu.device.clone();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         self.gbuffer_pass(&mut encoder);
-        self.shadows.record(&mut encoder, &self.surface, &mut self.timer)?;
+        let work = self.shadows.record(&mut encoder, &self.targets.surface, &mut self.timer)?;
         self.lighting_passes(&mut encoder, None);
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.wait();
@@ -290,14 +221,15 @@ impl Renderer {
             .timer
             .read(&self.gpu)
             .map_err(|e| TechniqueError::Failed { id: "frame".into(), message: e.to_string() })?;
-        Ok(FrameReport { gpu, cpu_ms })
+        Ok(FrameReport { gpu, cpu_ms, work })
     }
 
     fn gbuffer_pass(&mut self, encoder: &mut wgpu::CommandEncoder) {
-        let shared = &self.shadows.shared;
+        let shared = self.shadows.shared();
         let timestamps = self.timer.render_pass(&self.gpu.device, PassKind::Gbuffer);
-        let views = [&self.normal, &self.albedo, &self.emissive, &self.geometric_normal]
-            .map(|t| t.create_view(&Default::default()));
+        let views =
+            [&self.targets.normal, &self.targets.albedo, &self.targets.emissive, &self.targets.geometric_normal]
+                .map(|t| t.create_view(&Default::default()));
         let clear = |view| {
             Some(wgpu::RenderPassColorAttachment {
                 view,
@@ -309,7 +241,7 @@ impl Renderer {
                 },
             })
         };
-        let depth_view = self.depth.create_view(&Default::default());
+        let depth_view = self.targets.depth.create_view(&Default::default());
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("g-buffer"),
             color_attachments: &[clear(&views[0]), clear(&views[1]), clear(&views[2]), clear(&views[3])],
@@ -322,8 +254,8 @@ impl Renderer {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        let camera_group = gbuffer_camera_group(shared, &self.surface.camera_buffer);
-        let gpu_scene = &self.shadows.gpu_scene;
+        let camera_group = gbuffer_camera_group(shared, &self.targets.surface.camera_buffer);
+        let gpu_scene = self.shadows.gpu_scene();
         gpu_scene.bind(&mut pass);
         pass.set_bind_group(0, Some(&camera_group), &[]);
         for g in &gpu_scene.groups {
@@ -341,9 +273,9 @@ impl Renderer {
         encoder: &mut wgpu::CommandEncoder,
         override_layers: Option<&[(LightId, VisibilityLayer)]>,
     ) {
-        let shared = &self.shadows.shared;
+        let shared = self.shadows.shared();
         let device = &self.gpu.device;
-        let hdr_view = self.hdr.create_view(&Default::default());
+        let hdr_view = self.targets.hdr.create_view(&Default::default());
         let timestamps = self.timer.render_pass(device, PassKind::Lighting);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -362,7 +294,7 @@ impl Renderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_bind_group(0, Some(&self.lighting_group), &[]);
+            pass.set_bind_group(0, Some(&self.targets.lighting_group), &[]);
             pass.set_pipeline(&lighting_pipeline(shared, "fs_base", false));
             pass.draw(0..3, 0..1);
             pass.set_pipeline(&lighting_pipeline(shared, "fs_light", true));
@@ -386,7 +318,7 @@ impl Renderer {
                 pass.draw(0..3, 0..1);
             }
         }
-        let output_view = self.output.create_view(&Default::default());
+        let output_view = self.targets.output.create_view(&Default::default());
         let timestamps = self.timer.render_pass(device, PassKind::Lighting);
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("tone mapping"),
@@ -405,19 +337,19 @@ impl Renderer {
             &self.environment,
             0,
             bytemuck::bytes_of(&EnvironmentUniform {
-                ambient: self.shadows.scene.ambient.extend(self.exposure),
+                ambient: self.shadows.scene().ambient.extend(self.exposure),
                 background: BACKGROUND.extend(1.0),
             }),
         );
         pass.set_pipeline(&tonemap_pipeline(shared));
-        pass.set_bind_group(0, Some(&self.lighting_group), &[]);
-        pass.set_bind_group(2, Some(&self.tonemap_group), &[]);
+        pass.set_bind_group(0, Some(&self.targets.lighting_group), &[]);
+        pass.set_bind_group(2, Some(&self.targets.tonemap_group), &[]);
         pass.draw(0..3, 0..1);
     }
 
     /// The final image as tightly packed sRGB RGB bytes.
     pub fn read_image(&self) -> Result<Vec<u8>, GpuError> {
-        let rgba = util::read_texture(&self.gpu.device, &self.gpu.queue, &self.output, 4)?;
+        let rgba = util::read_texture(&self.gpu.device, &self.gpu.queue, &self.targets.output, 4)?;
         Ok(rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
     }
 
@@ -429,6 +361,37 @@ impl Renderer {
             }
             None => Ok(None),
         }
+    }
+
+    /// The visibility a fresh, uncached engine on the same state (scene, techniques, size) gives on
+    /// the last rendered frame's surface, per shadowed light **index** (`scene().lights[i]`): what
+    /// the live engine must equal (DESIGN.md §11, "never stale").
+    pub fn fresh_visibility(&self) -> Result<Vec<(usize, Vec<f32>)>, TechniqueError> {
+        let fail = |e: GpuError| TechniqueError::Failed { id: "fresh".into(), message: e.to_string() };
+        let mut fresh = self.shadows.fresh()?;
+        let mut timer = GpuTimer::new(&self.gpu);
+        timer.begin_frame();
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        fresh.record(&mut encoder, &self.targets.surface, &mut timer)?;
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.wait();
+        let mut out = Vec::new();
+        for s in &fresh.lights {
+            let values = util::read_texture(&self.gpu.device, &self.gpu.queue, &s.layer.texture, 4).map_err(fail)?;
+            out.push((s.light.index(), util::f32s(&values)));
+        }
+        Ok(out)
+    }
+
+    /// The visibility of every shadowed light, by light index (as [`Renderer::fresh_visibility`]).
+    pub fn live_visibility(&self) -> Result<Vec<(usize, Vec<f32>)>, GpuError> {
+        let mut out = Vec::new();
+        for s in &self.shadows.lights {
+            let Some(index) = self.shadows.live().light_index(s.light) else { continue };
+            let values = util::read_texture(&self.gpu.device, &self.gpu.queue, &s.layer.texture, 4)?;
+            out.push((index, util::f32s(&values)));
+        }
+        Ok(out)
     }
 
     /// The surface the techniques shade: positions (in the scene's local frame) reconstructed from
@@ -445,7 +408,7 @@ impl Renderer {
             })
         };
         let (positions, normals, geometric_normals) = (make("positions"), make("normals"), make("geometric normals"));
-        let shared = &self.shadows.shared;
+        let shared = self.shadows.shared();
         let pipeline = shared.compute_pipeline("export surface", || {
             let module = crate::shader::module(device, "export surface", include_str!("export_surface.wgsl"));
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -461,15 +424,21 @@ impl Renderer {
             label: Some("export surface"),
             layout: &pipeline.get_bind_group_layout(0),
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.surface.camera_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&self.surface.depth) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&self.surface.normal) },
+                wgpu::BindGroupEntry { binding: 0, resource: self.targets.surface.camera_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&self.targets.surface.depth),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&self.targets.surface.normal),
+                },
                 wgpu::BindGroupEntry { binding: 3, resource: positions.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: normals.as_entire_binding() },
                 wgpu::BindGroupEntry {
                     binding: 5,
                     resource: wgpu::BindingResource::TextureView(
-                        &self.geometric_normal.create_view(&Default::default()),
+                        &self.targets.geometric_normal.create_view(&Default::default()),
                     ),
                 },
                 wgpu::BindGroupEntry { binding: 6, resource: geometric_normals.as_entire_binding() },
@@ -730,7 +699,7 @@ impl Renderer {
     pub fn map_overlay(&self, light: LightId, grid: u32) -> Result<Option<MapOverlay>, GpuError> {
         let Some(s) = self.shadows.lights.iter().find(|s| s.light == light) else { return Ok(None) };
         let Some(maps) = s.technique.analysis() else { return Ok(None) };
-        let shared = &self.shadows.shared;
+        let shared = self.shadows.shared();
         let device = &self.gpu.device;
         let (w, h) = (self.width, self.height);
         let layout = shared.layout("overlay", || {
@@ -779,7 +748,7 @@ impl Renderer {
                 wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&out_view) },
             ],
         });
-        let group0 = shared.resolve_bind_group(&self.surface, &s.light_buffer, &s.layer);
+        let group0 = shared.resolve_bind_group(&self.targets.surface, &s.light_buffer, &s.layer);
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());

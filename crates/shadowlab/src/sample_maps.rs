@@ -2,8 +2,11 @@
 //! `shaders/samples.wgsl`: shared by `sampled` (one set) and `cssm` (one set per cascade).
 //!
 //! Two layouts: every sample its own layers, looked up in one pass over the texture array (Azri
-//! 2020 §3 reports this about 10% faster), or all samples rendered in turn into the same layers
-//! and accumulated pass by pass (memory of one map, whatever N).
+//! 2020 §3 reports this about 10% faster), kept across frames by the live engine's cache
+//! ([`MapViews`]: only views whose signature changed are rendered, in `prepare`); or all samples
+//! rendered in turn into the same layers and accumulated pass by pass (memory of one map, whatever
+//! N), which cannot keep anything: those maps are rendered every frame, interleaved with their
+//! lookups in `resolve`.
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
@@ -11,13 +14,13 @@ use shadowlab_core::lightspace::{LightFrusta, ShadowView};
 use shadowlab_core::sampling::{EmitterPoint, EmitterSample};
 
 use crate::context::{Shared, storage_entry};
+use crate::live::MapViews;
 use crate::shadowmap::{BiasUniform, Raster, ShadowMapArray, lookup_group};
 use crate::technique::{FrameContext, TechniqueError};
 use crate::timing::PassKind;
 
 /// `SET_*` flags of `samples.wgsl`.
 pub const SET_PCF: u32 = 1;
-pub const SET_SHARED_LAYERS: u32 = 2;
 pub const SET_FIRST: u32 = 4;
 
 #[repr(C)]
@@ -93,24 +96,42 @@ pub struct SetConfig {
 }
 
 /// Samples with their maps and the group-2 bind group.
+/// Where the samples' maps live.
+pub enum SampleStorage {
+    /// Every sample its own layers, cached.
+    Cached(MapViews),
+    /// The samples take turns in the same layers (one sample's views).
+    Shared(ShadowMapArray),
+}
+
 pub struct SampleMaps {
-    pub maps: ShadowMapArray,
+    pub storage: SampleStorage,
     /// Views per sample (1, or 6 for cube maps).
     pub faces: u32,
     pub samples: u32,
     pub array: bool,
     pub lookup: wgpu::BindGroup,
+    bias: wgpu::Buffer,
+    /// The cached maps' generation the lookup group was made for.
+    generation: u32,
+    /// Every sample's views, in slot order (sample i's at `i·faces..`).
+    views: Vec<ShadowView>,
     group: wgpu::BindGroup,
     sets: wgpu::Buffer,
+    samples_buffer: wgpu::Buffer,
     stride: u64,
     bytes: u64,
+    /// Views rendered by the last update (cached storage).
+    pub rendered: u32,
 }
 
 impl SampleMaps {
     /// `frusta[i]` are sample i's views (all with the same count); `sets` the dispatches this set
     /// will make (their uniforms, addressed by index in [`SampleMaps::dispatch`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         shared: &Shared,
+        cache: &mut crate::live::ShadowCache,
         id: &str,
         points: &[EmitterPoint],
         frusta: &[LightFrusta],
@@ -139,9 +160,15 @@ impl SampleMaps {
                 message: format!("{layers} maps of {}² need {} MiB", config.size, bytes_needed >> 20),
             });
         }
-        let maps = ShadowMapArray::new(shared, config.size, layers, n * faces);
-        let views: Vec<ShadowView> = frusta.iter().flat_map(|f| f.views.iter().copied()).collect();
-        maps.set_views(&shared.gpu.queue, 0, &views);
+        let storage = if config.array {
+            SampleStorage::Cached(MapViews::new(shared, cache, config.size, n * faces))
+        } else {
+            SampleStorage::Shared(ShadowMapArray::new(shared, config.size, layers, n * faces))
+        };
+        let maps = match &storage {
+            SampleStorage::Cached(m) => &m.maps,
+            SampleStorage::Shared(m) => m,
+        };
         let bias = BiasUniform {
             values: Vec4::new(
                 config.normal_offset,
@@ -152,19 +179,8 @@ impl SampleMaps {
             mode: Vec4::ZERO,
         };
         let bias_buffer = crate::util::uniform_buffer(device, "sample map params", bytemuck::bytes_of(&bias));
-        let lookup = lookup_group(shared, &maps, &bias_buffer, false);
-        let infos: Vec<SampleInfo> = points
-            .iter()
-            .map(|p| {
-                let position = match p.sample {
-                    EmitterSample::Point(q) => q.extend(0.0),
-                    EmitterSample::Direction(d) => d.extend(1.0),
-                };
-                let normal = p.sphere_normal.map(|n| n.extend(1.0)).unwrap_or(Vec4::ZERO);
-                SampleInfo { position, normal }
-            })
-            .collect();
-        let sample_buffer = crate::util::storage_buffer(device, "samples", bytemuck::cast_slice(&infos));
+        let lookup = lookup_group(shared, maps, &bias_buffer, false);
+        let sample_buffer = crate::util::storage_buffer(device, "samples", bytemuck::cast_slice(&sample_infos(points)));
         let stride = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(32);
         let set_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("sample sets"),
@@ -191,13 +207,73 @@ impl SampleMaps {
                 },
             ],
         });
-        let bytes = maps.bytes() + sample_buffer.size() + set_buffer.size() + bias_buffer.size();
-        Ok(Self { maps, faces, samples: n, array: config.array, lookup, group, sets: set_buffer, stride, bytes })
+        let bytes = sample_buffer.size() + set_buffer.size() + bias_buffer.size();
+        let mut set = Self {
+            storage,
+            faces,
+            samples: n,
+            array: config.array,
+            lookup,
+            bias: bias_buffer,
+            generation: 0,
+            views: Vec::new(),
+            group,
+            sets: set_buffer,
+            samples_buffer: sample_buffer,
+            stride,
+            bytes,
+            rendered: 0,
+        };
+        set.set_views(&shared.gpu.queue, frusta);
+        Ok(set)
+    }
+
+    /// Rewrites the samples' positions and weights (the light moved; same count).
+    pub fn set_points(&self, queue: &wgpu::Queue, points: &[EmitterPoint]) {
+        queue.write_buffer(&self.samples_buffer, 0, bytemuck::cast_slice(&sample_infos(points)));
+    }
+
+    /// The texture array the lookups read.
+    pub fn maps(&self) -> &ShadowMapArray {
+        match &self.storage {
+            SampleStorage::Cached(m) => &m.maps,
+            SampleStorage::Shared(m) => m,
+        }
+    }
+
+    /// Sets every sample's views (stored now for shared layers, where samples read their face's
+    /// layer; at the next [`SampleMaps::update`] for cached ones).
+    pub fn set_views(&mut self, queue: &wgpu::Queue, frusta: &[LightFrusta]) {
+        self.views = frusta.iter().flat_map(|f| f.views.iter().copied()).collect();
+        if let SampleStorage::Shared(maps) = &self.storage {
+            let faces = self.faces.max(1);
+            let layers: Vec<u32> = (0..self.views.len() as u32).map(|slot| slot % faces).collect();
+            maps.set_views_in(queue, 0, &self.views, &layers);
+        }
+    }
+
+    /// Renders the cached samples' views that are not valid (nothing for shared layers, which are
+    /// rendered in turn by [`SampleMaps::render_sample`]). Returns the views rendered.
+    pub fn update(&mut self, ctx: &mut FrameContext<'_>, raster: &Raster) -> Result<u32, TechniqueError> {
+        let SampleStorage::Cached(maps) = &mut self.storage else { return Ok(0) };
+        self.rendered = maps.update(ctx, &self.views, raster, 0)?;
+        if self.generation != maps.generation() {
+            self.lookup = lookup_group(ctx.shared, &maps.maps, &self.bias, false);
+            self.generation = maps.generation();
+        }
+        Ok(self.rendered)
+    }
+
+    /// Drops the cached samples' records (before the set is replaced).
+    pub fn forget_items(&self, ctx: &mut FrameContext<'_>) {
+        if let SampleStorage::Cached(maps) = &self.storage {
+            maps.forget_items(ctx);
+        }
     }
 
     /// GPU bytes held (maps, samples, uniforms; not the shared sums).
     pub fn bytes(&self) -> u64 {
-        self.bytes
+        self.bytes + self.maps().bytes()
     }
 
     /// Replaces the uniform of dispatch `set`.
@@ -205,14 +281,15 @@ impl SampleMaps {
         queue.write_buffer(&self.sets, set as u64 * self.stride, bytemuck::bytes_of(value));
     }
 
-    /// Renders sample `i`'s views into its layers. Returns the draws issued.
+    /// Renders sample `i`'s views into the shared layers (uncached storage). Returns the draws
+    /// issued.
     pub fn render_sample(&self, ctx: &mut FrameContext<'_>, i: u32, raster: &Raster) -> u32 {
+        let SampleStorage::Shared(maps) = &self.storage else { return 0 };
         let mut draws = 0;
         for face in 0..self.faces {
-            let slot = i * self.faces + face;
-            let layer = if self.array { slot } else { face };
-            draws += self.maps.render(ctx, layer, slot, raster);
+            draws += maps.render(ctx, face, i * self.faces + face, raster);
         }
+        ctx.cache.work.map_views += self.faces;
         draws
     }
 
@@ -239,4 +316,19 @@ impl SampleMaps {
             1,
         );
     }
+}
+
+/// `SampleInfo`s of emitter points.
+fn sample_infos(points: &[EmitterPoint]) -> Vec<SampleInfo> {
+    points
+        .iter()
+        .map(|p| {
+            let position = match p.sample {
+                EmitterSample::Point(q) => q.extend(0.0),
+                EmitterSample::Direction(d) => d.extend(1.0),
+            };
+            let normal = p.sphere_normal.map(|n| n.extend(1.0)).unwrap_or(Vec4::ZERO);
+            SampleInfo { position, normal }
+        })
+        .collect()
 }

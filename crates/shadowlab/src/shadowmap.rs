@@ -4,6 +4,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
+use shadowlab_core::Mobility;
 use shadowlab_core::lightspace::ShadowView;
 use shadowlab_core::params::ParamDef;
 
@@ -21,17 +22,19 @@ pub struct ShadowViewUniform {
     pub view_proj: [[f32; 4]; 4],
     pub eye: [f32; 4],
     pub axis: [f32; 4],
-    /// x, y: the view's near and far distances (to turn stored depths back into distances).
+    /// x, y: the view's near and far distances (to turn stored depths back into distances); z: the
+    /// texture layer that holds its map.
     pub range: [f32; 4],
 }
 
-impl From<&ShadowView> for ShadowViewUniform {
-    fn from(v: &ShadowView) -> Self {
+impl ShadowViewUniform {
+    /// View `v` with its map in texture layer `layer`.
+    pub fn new(v: &ShadowView, layer: u32) -> Self {
         Self {
             view_proj: v.view_projection.to_cols_array_2d(),
             eye: v.eye.extend(if v.orthographic { 1.0 } else { 0.0 }).into(),
             axis: v.axis.extend(v.texel_scale).into(),
-            range: [v.near, v.far, 0.0, 0.0],
+            range: [v.near, v.far, layer as f32, 0.0],
         }
     }
 }
@@ -100,6 +103,9 @@ pub struct BiasUniform {
     pub mode: Vec4,
 }
 
+/// Every mobility that permanent maps hold: temporary (dragged) objects have a pass of their own.
+pub const PERMANENT: &[Mobility] = &[Mobility::Static, Mobility::Dynamic];
+
 /// A depth texture array with the views it is rendered from.
 pub struct ShadowMapArray {
     pub texture: wgpu::Texture,
@@ -129,7 +135,11 @@ impl ShadowMapArray {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: SHADOW_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            // Copies: cached static maps are copied before dynamic casters are drawn over them.
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
         let array_view = texture.create_view(&wgpu::TextureViewDescriptor {
@@ -175,6 +185,37 @@ impl ShadowMapArray {
         Self { texture, array_view, layer_views, size, layers, matrices, matrices_group, stride, views, capacity }
     }
 
+    /// Copies layer `from` into layer `to` (a cached static map under its composite copy).
+    pub fn copy_layer(&self, encoder: &mut wgpu::CommandEncoder, from: u32, to: u32) {
+        let at = |layer: u32| wgpu::TexelCopyTextureInfo {
+            texture: &self.texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+            aspect: wgpu::TextureAspect::All,
+        };
+        encoder.copy_texture_to_texture(
+            at(from),
+            at(to),
+            wgpu::Extent3d { width: self.size, height: self.size, depth_or_array_layers: 1 },
+        );
+    }
+
+    /// The same array with `layers` layers (at least as many as now), the current ones copied over:
+    /// the views, matrices and their buffers stay.
+    pub fn grown(self, shared: &Shared, encoder: &mut wgpu::CommandEncoder, layers: u32) -> Self {
+        let mut bigger = Self::new(shared, self.size, layers.max(self.layers), self.capacity);
+        encoder.copy_texture_to_texture(
+            self.texture.as_image_copy(),
+            bigger.texture.as_image_copy(),
+            wgpu::Extent3d { width: self.size, height: self.size, depth_or_array_layers: self.layers },
+        );
+        // Keep the old buffers: they hold the views already written.
+        bigger.matrices = self.matrices;
+        bigger.matrices_group = self.matrices_group;
+        bigger.views = self.views;
+        bigger
+    }
+
     /// Bytes held on the GPU.
     pub fn bytes(&self) -> u64 {
         u64::from(self.size) * u64::from(self.size) * u64::from(self.texture.depth_or_array_layers()) * 4
@@ -182,13 +223,20 @@ impl ShadowMapArray {
             + self.views.size()
     }
 
-    /// Stores `views` in slots `first..`.
+    /// Stores `views` in slots `first..`, each view's map in the layer of its slot.
     pub fn set_views(&self, queue: &wgpu::Queue, first: u32, views: &[ShadowView]) {
+        let layers: Vec<u32> = (first..first + views.len() as u32).collect();
+        self.set_views_in(queue, first, views, &layers);
+    }
+
+    /// Stores `views` in slots `first..` with their maps in `layers` (views may share layers).
+    pub fn set_views_in(&self, queue: &wgpu::Queue, first: u32, views: &[ShadowView], layers: &[u32]) {
         for (i, v) in views.iter().enumerate() {
             let slot = u64::from(first) + i as u64;
             queue.write_buffer(&self.matrices, slot * self.stride, bytemuck::bytes_of(&v.view_projection));
         }
-        let data: Vec<ShadowViewUniform> = views.iter().map(ShadowViewUniform::from).collect();
+        let data: Vec<ShadowViewUniform> =
+            views.iter().zip(layers).map(|(v, &layer)| ShadowViewUniform::new(v, layer)).collect();
         queue.write_buffer(
             &self.views,
             u64::from(first) * std::mem::size_of::<ShadowViewUniform>() as u64,
@@ -196,16 +244,42 @@ impl ShadowMapArray {
         );
     }
 
-    /// Renders the shadow casters into `layer` from the view in `slot`. Returns the draws issued.
+    /// Moves view `slot`'s lookups to texture `layer` (its view must have been stored).
+    pub fn set_view_layer(&self, queue: &wgpu::Queue, slot: u32, view: &ShadowView, layer: u32) {
+        let u = ShadowViewUniform::new(view, layer);
+        queue.write_buffer(
+            &self.views,
+            u64::from(slot) * std::mem::size_of::<ShadowViewUniform>() as u64,
+            bytemuck::bytes_of(&u),
+        );
+    }
+
+    /// Renders every permanent shadow caster into `layer` from the view in `slot`. Returns the
+    /// draws issued.
     pub fn render(&self, ctx: &mut FrameContext<'_>, layer: u32, slot: u32, raster: &Raster) -> u32 {
+        self.render_casters(ctx, layer, slot, raster, PERMANENT, true)
+    }
+
+    /// Renders the casters of the given mobilities into `layer` from the view in `slot`, over a
+    /// cleared layer or over what it holds (`clear: false`: dynamic casters over a static copy).
+    pub fn render_casters(
+        &self,
+        ctx: &mut FrameContext<'_>,
+        layer: u32,
+        slot: u32,
+        raster: &Raster,
+        classes: &[Mobility],
+        clear: bool,
+    ) -> u32 {
         let timestamps = ctx.timer.render_pass(&ctx.gpu.device, PassKind::Shadow);
+        // Reversed Z: 0 is "infinitely far", every caster is closer.
+        let load = if clear { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load };
         let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("shadow map"),
             color_attachments: &[],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &self.layer_views[layer as usize],
-                // Reversed Z: 0 is "infinitely far", every caster is closer.
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                depth_ops: Some(wgpu::Operations { load, store: wgpu::StoreOp::Store }),
                 stencil_ops: None,
             }),
             timestamp_writes: timestamps,
@@ -216,7 +290,7 @@ impl ShadowMapArray {
         pass.set_bind_group(0, Some(&self.matrices_group), &[(u64::from(slot) * self.stride) as u32]);
         let mut draws = 0;
         let mut current: Option<(wgpu::Face, bool, bool)> = None;
-        for g in ctx.gpu_scene.groups.iter().filter(|g| g.casts_shadows) {
+        for g in ctx.gpu_scene.casters(classes) {
             let cull = cull_mode(g, raster.faces);
             let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored);
             if current != Some(key) {
@@ -308,68 +382,6 @@ fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, slo
             cache: None,
         })
     })
-}
-
-/// A light's hard shadow map from its centre: the frusta, the map array, the bias, and the group-1
-/// bind group of `shaders/maplookup.wgsl`.
-pub struct LightMap {
-    pub maps: ShadowMapArray,
-    pub frusta: shadowlab_core::lightspace::LightFrusta,
-    pub raster: Raster,
-    params: wgpu::Buffer,
-    pub group: wgpu::BindGroup,
-    /// One map (or one cube) for `shaders/selection.wgsl`.
-    pub selection: wgpu::BindGroup,
-    draws: u32,
-}
-
-impl LightMap {
-    /// From the map parameters in `p` (`map_size`, `faces`, `slope_bias`, `normal_offset`,
-    /// `constant_bias`); `linear` selects bilinear comparison taps (2 × 2 PCF) over nearest ones.
-    pub fn new(
-        shared: &Shared,
-        light: &shadowlab_core::Light,
-        bounds: &shadowlab_core::Aabb,
-        p: &shadowlab_core::ParamSet,
-        linear: bool,
-    ) -> Self {
-        let size = p.int("map_size") as u32;
-        let frusta = shadowlab_core::lightspace::light_frusta(light, bounds, size);
-        let layers = frusta.views.len() as u32;
-        let maps = ShadowMapArray::new(shared, size, layers, layers);
-        maps.set_views(&shared.gpu.queue, 0, &frusta.views);
-        let bias = BiasUniform {
-            values: Vec4::new(
-                p.float("normal_offset") as f32,
-                p.float("constant_bias") as f32,
-                size as f32,
-                if frusta.cube { 1.0 } else { 0.0 },
-            ),
-            mode: Vec4::new(if linear { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0),
-        };
-        let params = crate::util::uniform_buffer(&shared.gpu.device, "map params", bytemuck::bytes_of(&bias));
-        let group = lookup_group(shared, &maps, &params, linear);
-        let raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
-        let selection = single_selection(shared);
-        Self { maps, frusta, raster, params, group, selection, draws: 0 }
-    }
-
-    /// Renders every view of the map.
-    pub fn render(&mut self, ctx: &mut FrameContext<'_>) {
-        self.draws = 0;
-        for layer in 0..self.maps.layers {
-            self.draws += self.maps.render(ctx, layer, layer, &self.raster);
-        }
-    }
-
-    pub fn bytes(&self) -> u64 {
-        self.maps.bytes() + self.params.size()
-    }
-
-    /// Passes, draws and triangles of the last [`LightMap::render`].
-    pub fn counts(&self, gpu_scene_triangles: u64) -> (u32, u32, u64) {
-        (self.maps.layers, self.draws, gpu_scene_triangles * u64::from(self.maps.layers))
-    }
 }
 
 /// The group-1 layout of `shaders/maplookup.wgsl`.

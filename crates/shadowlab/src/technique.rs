@@ -15,6 +15,7 @@ use crate::context::Shared;
 use crate::frame::{SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
+use crate::live::{LiveScene, ShadowCache};
 use crate::timing::GpuTimer;
 
 /// A technique could not be set up or run.
@@ -64,6 +65,12 @@ pub struct FrameContext<'a> {
     pub timer: &'a mut GpuTimer,
     /// Frames rendered before this one (for techniques that cache or spread work over frames).
     pub frame_index: u64,
+    /// The scene's ids and versions (what cached items are checked against).
+    pub live: &'a LiveScene,
+    /// The one store of cached items, and this frame's work counts.
+    pub cache: &'a mut ShadowCache,
+    /// The technique instance's owner id in the cache.
+    pub owner: u32,
 }
 
 /// The maps a technique looks up, for the analysis overlays (`shadowlab render --overlay`).

@@ -2,9 +2,9 @@
 //!
 //! | name | what it tests |
 //! | --- | --- |
-//! | `room` | furnished interior, four lights of every kind, fine detail (slats, a cup handle) |
+//! | `room` | furnished interior, four lights of every kind (`lamps=N`: N point lamps), fine detail |
 //! | `penumbra` | the analytic case: a square over a plane under a square light, closed-form truth |
-//! | `columns` | three rooms with pillars and doorways, four point lights, dynamic objects |
+//! | `columns` | three rooms with pillars and doorways, four point lights, dynamic objects (`movers=N` more) |
 //! | `terrain` | 800 m of terrain under a directional light: the long-view, perspective-aliasing case |
 
 mod columns;

@@ -19,7 +19,14 @@ use crate::scene::{Instance, Role, Scene};
 pub const SUMMARY: &str =
     "furnished 5 × 4 × 2.6 m room: ceiling lamp, reading spot, coloured point light, sun through a window";
 
-pub static OPTIONS: &[ParamDef] = &[];
+pub static OPTIONS: &[ParamDef] = &[ParamDef::int(
+    "lamps",
+    0,
+    0,
+    MAX_LAMPS as i64,
+    "point lamps 'lamp 1'..'lamp N' (4.5 cm, range 2.5-5 m) around the furniture, plus the sun, \
+     instead of the usual four lights (0: those)",
+)];
 
 const HALF_X: f32 = 2.5;
 const HALF_Z: f32 = 2.0;
@@ -31,7 +38,7 @@ const WINDOW_Y: (f32, f32) = (0.9, 2.1);
 const TABLE_CENTRE: Vec3 = Vec3::new(-0.4, 0.0, 0.1);
 const TABLE_TOP: f32 = 0.75;
 
-pub fn build(_options: &ParamSet) -> Scene {
+pub fn build(options: &ParamSet) -> Scene {
     let mut b = Builder::new("room");
     shell(&mut b);
     table_and_chairs(&mut b);
@@ -41,7 +48,10 @@ pub fn build(_options: &ParamSet) -> Scene {
     lamps(&mut b);
     let mut scene = b.finish();
     scene.ambient = Vec3::splat(0.04);
-    lights(&mut scene);
+    match options.int("lamps").clamp(0, MAX_LAMPS as i64) as usize {
+        0 => lights(&mut scene),
+        n => many_lamps(&mut scene, n),
+    }
     scene.views = vec![
         View::new("default", Vec3::new(-2.2, 1.75, 1.75), Vec3::new(0.3, 0.45, -0.4), 0.05, 20.0)
             .with_fov_degrees(68.0),
@@ -411,8 +421,12 @@ fn lights(scene: &mut Scene) {
         Light::new("accent", LightKind::Point { position: ACCENT_LAMP, radius: 0.02 }, Vec3::new(0.35, 0.55, 1.0), 0.6)
             .with_range(4.0),
     );
-    // The sun comes in through the east window from the east, down at about 40°.
-    scene.add_light(Light::new(
+    scene.add_light(sun());
+}
+
+/// The sun comes in through the east window from the east, down at about 40°.
+fn sun() -> Light {
+    Light::new(
         "sun",
         LightKind::Directional {
             direction: Vec3::new(-0.72, -0.62, 0.3).normalize(),
@@ -420,12 +434,101 @@ fn lights(scene: &mut Scene) {
         },
         Vec3::new(1.0, 0.95, 0.85),
         4.0,
-    ));
+    )
+}
+
+/// The most lamps `room:lamps=N` places.
+const MAX_LAMPS: usize = LAMPS.len();
+/// Emitter radius of the `lamps` option's point lamps (m).
+const LAMP_RADIUS: f32 = 0.045;
+
+/// One point lamp of the `lamps` option.
+struct Lamp {
+    position: Vec3,
+    /// Distance beyond which the lamp has no effect (m): a few metres, so that most lamps miss some
+    /// corners of the room.
+    range: f32,
+    /// Chosen so that intensity / distance² stays under 6 on the nearest wall, floor or ceiling
+    /// (about 1.5 in HDR units there): bright, never blown out.
+    intensity: f32,
+}
+
+const fn lamp(x: f32, y: f32, z: f32, range: f32, intensity: f32) -> Lamp {
+    Lamp { position: Vec3::new(x, y, z), range, intensity }
+}
+
+/// The lamps of `room:lamps=N`, the first N of them. Each sits at least 0.3 m from walls, floor and
+/// ceiling and 0.15 m outside every piece of furniture's bounds, where the furniture between it and
+/// the floor or walls casts shadows the views see. The first eight spread over the room, and for
+/// each corner of the floor one of them does not reach it; the rest add light at other heights.
+const LAMPS: [Lamp; 16] = [
+    // 1: over the table, 0.75 m above its top: the table, the chairs' seats and slats on the
+    // floor, the cup and the fruit on the table top.
+    lamp(-0.4, 1.5, 0.1, 3.5, 1.6),
+    // 2: beside the bookcase (west of it, in front): its side panel and the books on the shelves
+    // and back panel, the north-east and east chairs on the floor.
+    lamp(0.6, 1.3, -1.35, 3.0, 1.0),
+    // 3: near the sofa, east of it above the seat: cushions and arm on the sofa and the west wall,
+    // the table's west end and the south chair on the floor.
+    lamp(-1.3, 1.2, 0.75, 3.0, 1.6),
+    // 4: high towards the south-east corner: the table and the east chair towards the north-west.
+    lamp(1.9, 1.9, 1.35, 4.0, 2.0),
+    // 5: at chair height south of the table: long shadows of table and chair legs northwards over
+    // the floor onto the bookcase and the north wall.
+    lamp(0.15, 0.55, 1.35, 3.0, 1.2),
+    // 6: low in the north-west, between the reading lamp and the north-west chair: chair and table
+    // legs south-eastwards over the floor, the reading lamp's pole towards the sofa.
+    lamp(-1.2, 0.6, -1.5, 2.5, 0.8),
+    // 7: high over the east chair: its slats on the floor.
+    lamp(1.1, 2.0, 0.5, 3.5, 2.0),
+    // 8: low by the east wall, north of the window: the east chair and the table legs westwards
+    // over the floor, the bookcase's end along the north wall.
+    lamp(2.1, 0.45, -0.9, 3.5, 0.9),
+    // 9: high by the north wall behind the north chairs: their slats on the table and the floor.
+    lamp(-0.6, 2.0, -1.55, 3.0, 1.2),
+    // 10: high by the south wall between the sofa and the south chair: the chair's slats and the
+    // sofa's south arm.
+    lamp(-1.2, 1.8, 1.55, 3.0, 1.2),
+    // 11: under table height between the sofa and the table: table and chair legs eastwards.
+    lamp(-1.35, 0.35, -0.35, 3.0, 0.6),
+    // 12: above the bookcase: shelves on the books.
+    lamp(1.5, 2.25, -1.5, 2.5, 0.7),
+    // 13: behind the south chair's back, by the south wall: its slats under the table.
+    lamp(-0.5, 1.1, 1.6, 3.0, 0.9),
+    // 14: just above the table top at its east end: cup, saucer and fruit across the top.
+    lamp(0.55, 1.0, -0.35, 2.5, 0.6),
+    // 15: low in the north-east corner, in front of the bookcase: the east chair westwards.
+    lamp(2.15, 0.5, -1.35, 2.5, 0.6),
+    // 16: half a metre under the ceiling, mid-room, with the longest reach.
+    lamp(0.3, 2.1, -0.4, 5.0, 1.4),
+];
+
+/// Warm lamp colours (linear RGB), used in turn.
+const LAMP_COLOURS: [Vec3; 4] =
+    [Vec3::new(1.0, 0.85, 0.65), Vec3::new(1.0, 0.78, 0.55), Vec3::new(1.0, 0.9, 0.75), Vec3::new(1.0, 0.72, 0.45)];
+
+/// `room:lamps=N`: the first `n` of [`LAMPS`], then the sun. Beyond eight lamps every lamp is
+/// dimmed by 8/N, so that sixteen light the room about as brightly as eight.
+fn many_lamps(scene: &mut Scene, n: usize) {
+    let dim = (8.0 / n as f32).min(1.0);
+    for (i, l) in LAMPS.iter().take(n).enumerate() {
+        scene.add_light(
+            Light::new(
+                format!("lamp {}", i + 1),
+                LightKind::Point { position: l.position, radius: LAMP_RADIUS },
+                LAMP_COLOURS[i % LAMP_COLOURS.len()],
+                l.intensity * dim,
+            )
+            .with_range(l.range),
+        );
+    }
+    scene.add_light(sun());
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bounds::Aabb;
 
     #[test]
     fn size_and_roles() {
@@ -441,5 +544,195 @@ mod tests {
         assert!(dynamic[0].name.contains("chair"));
         let kinds: Vec<_> = s.lights.iter().map(|l| l.type_name()).collect();
         assert_eq!(kinds, ["point", "spot", "point", "directional"]);
+    }
+
+    fn room(spec: &str) -> Scene {
+        let s = super::super::build(spec).unwrap();
+        s.validate().unwrap_or_else(|e| panic!("{spec}: {e}"));
+        s
+    }
+
+    /// The world bounds of every instance but the shell (floor, ceiling, walls: their boxes
+    /// enclose the whole room).
+    fn furniture(s: &Scene) -> Vec<(&str, Aabb)> {
+        s.instances
+            .iter()
+            .filter(|i| i.role != Some(Role::Receiver))
+            .map(|i| (i.name.as_str(), s.mesh(i.mesh).bounds().transformed(&i.transform)))
+            .collect()
+    }
+
+    fn distance_to_box(p: Vec3, b: &Aabb) -> f32 {
+        (b.min - p).max(p - b.max).max(Vec3::ZERO).length()
+    }
+
+    #[test]
+    fn without_lamps_the_room_keeps_its_four_lights() {
+        let s = room("room");
+        assert_eq!(s, room("room:lamps=0"));
+        // 23 objects: the shell (5 with the sill), 8 pieces of furniture, 4 rows of books, cup,
+        // saucer, bowl, fruit and the two lamp fixtures.
+        assert_eq!(s.instances.len(), 23);
+        let lights: Vec<_> = s.lights.iter().map(|l| (l.name.as_str(), l.type_name(), l.position())).collect();
+        assert_eq!(
+            lights,
+            [
+                ("ceiling lamp", "point", Some(CEILING_LAMP)),
+                ("reading lamp", "spot", Some(READING_LAMP)),
+                ("accent", "point", Some(ACCENT_LAMP)),
+                ("sun", "directional", None),
+            ]
+        );
+    }
+
+    #[test]
+    fn lamps_replace_the_local_lights_and_stand_clear_of_the_furniture() {
+        let plain = room("room");
+        for n in [1, 8, 16] {
+            let s = room(&format!("room:lamps={n}"));
+            // The same objects and views: only the lights differ.
+            assert_eq!(
+                (&s.instances, &s.meshes, &s.materials, &s.views),
+                (&plain.instances, &plain.meshes, &plain.materials, &plain.views)
+            );
+            assert_eq!(s.lights.len(), n + 1);
+            assert_eq!(s.lights[n], plain.lights[3], "the sun stays, last");
+            let furniture = furniture(&s);
+            for (i, l) in s.lights[..n].iter().enumerate() {
+                assert_eq!(l.name, format!("lamp {}", i + 1));
+                let LightKind::Point { position: p, radius } = l.kind else { panic!("{}: {:?}", l.name, l.kind) };
+                // Small spheres: 4 to 5 cm.
+                assert!((0.04..=0.05).contains(&radius), "{}: radius {radius}", l.name);
+                // A range of a few metres (the lamps have 2.5 to 5 m).
+                let range = l.range.unwrap_or(f32::INFINITY);
+                assert!((2.0..=5.0).contains(&range), "{}: range {range}", l.name);
+                // Inside the room, at least 0.3 m from walls, floor and ceiling (the closest, lamps 11,
+                // 12 and 15 by floor, ceiling and east wall, are 0.35 m away).
+                let inner = Aabb::new(Vec3::new(-HALF_X, 0.0, -HALF_Z) + 0.3, Vec3::new(HALF_X, HEIGHT, HALF_Z) - 0.3);
+                assert!(inner.contains(p), "{}: {p} is not in the room", l.name);
+                // Outside every piece of furniture's box, by at least 0.15 m (the closest, lamp 11
+                // between sofa and table, is 0.20 m from the sofa): no lamp inside a closed caster.
+                for (name, b) in &furniture {
+                    let d = distance_to_box(p, b);
+                    assert!(d >= 0.15, "{} at {p} is {d} m from {name}'s bounds {b:?}", l.name);
+                }
+                // Within range of the floor under it.
+                let below = Vec3::new(p.x, 0.0, p.z);
+                assert!(l.is_relevant(below, Vec3::Y) && l.attenuation(below) > 0.0, "{} misses the floor", l.name);
+                // No hot spot on the shell: intensity × attenuation at the nearest wall, floor or
+                // ceiling point at most 8 (the brightest, lamp 8 by the east wall, gives 5.6; times
+                // the wall's albedo/π, 0.25, that is 1.4, below the tone curve's shoulder).
+                let gaps = [p.x + HALF_X, HALF_X - p.x, p.y, HEIGHT - p.y, p.z + HALF_Z, HALF_Z - p.z];
+                let nearest = gaps.into_iter().fold(f32::INFINITY, f32::min);
+                let hot = l.intensity / (nearest * nearest);
+                assert!(hot <= 8.0, "{}: {hot} at {nearest} m", l.name);
+            }
+        }
+    }
+
+    #[test]
+    fn lamp_ranges_leave_out_every_corner_for_some_lamp() {
+        let s = room("room:lamps=8");
+        // Each of the eight lamps misses at least one corner of the floor.
+        let corners = [(-HALF_X, -HALF_Z), (HALF_X, -HALF_Z), (HALF_X, HALF_Z), (-HALF_X, HALF_Z)];
+        for l in &s.lights[..8] {
+            let (p, range) = (l.position().unwrap(), l.range.unwrap());
+            let missed = corners.iter().filter(|&&(x, z)| p.distance(Vec3::new(x, 0.0, z)) >= range).count();
+            assert!(missed >= 1, "{} reaches every corner", l.name);
+        }
+        // A chair (0.98 m high, 0.61 m across its diagonal) pushed into any corner of the floor stays
+        // inside that corner's 1 m cube; for each corner some lamp's range does not reach the cube,
+        // so that lamp need not redraw anything when the chair moves there.
+        for (cx, cz) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            let corner = Vec3::new(cx * HALF_X, 0.0, cz * HALF_Z);
+            let cube = Aabb::from_points([corner, corner - Vec3::new(cx, -1.0, cz)]);
+            let missing: Vec<&str> = s
+                .lights
+                .iter()
+                .filter(|l| {
+                    let (Some(p), Some(range)) = (l.position(), l.range) else { return false };
+                    distance_to_box(p, &cube) >= range
+                })
+                .map(|l| l.name.as_str())
+                .collect();
+            assert!(!missing.is_empty(), "every lamp reaches the corner {corner}");
+        }
+    }
+
+    /// World triangles of each piece of furniture, with their bounds.
+    fn furniture_triangles(s: &Scene) -> Vec<(Aabb, Vec<[Vec3; 3]>)> {
+        s.instances
+            .iter()
+            .filter(|i| i.role != Some(Role::Receiver))
+            .map(|i| {
+                let m = s.mesh(i.mesh);
+                let tris: Vec<[Vec3; 3]> =
+                    (0..m.triangle_count()).map(|t| m.corners(t).map(|c| i.transform.transform_point3(c))).collect();
+                (m.bounds().transformed(&i.transform), tris)
+            })
+            .collect()
+    }
+
+    /// Whether the segment `p → q` crosses a triangle (Möller & Trumbore 1997).
+    fn blocked(casters: &[(Aabb, Vec<[Vec3; 3]>)], p: Vec3, q: Vec3) -> bool {
+        let d = q - p;
+        let segment = Aabb::from_points([p, q]);
+        casters.iter().any(|(b, tris)| {
+            let overlaps = segment.min.cmple(b.max).all() && b.min.cmple(segment.max).all();
+            overlaps
+                && tris.iter().any(|&[a, b, c]| {
+                    let (e1, e2) = (b - a, c - a);
+                    let h = d.cross(e2);
+                    let det = e1.dot(h);
+                    if det.abs() < 1e-12 {
+                        return false;
+                    }
+                    let s = p - a;
+                    let u = s.dot(h) / det;
+                    let qv = s.cross(e1);
+                    let v = d.dot(qv) / det;
+                    let t = e2.dot(qv) / det;
+                    u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 1e-4 && t < 1.0 - 1e-4
+                })
+        })
+    }
+
+    #[test]
+    fn every_lamp_casts_furniture_shadows_on_floor_and_walls() {
+        let s = room("room:lamps=16");
+        let casters = furniture_triangles(&s);
+        // Points 10 cm apart on the floor and the four walls (not in the window), with their
+        // normals into the room.
+        let step = 0.1;
+        let grid = |a: f32, b: f32| (0..((b - a) / step) as usize).map(move |k| a + (k as f32 + 0.5) * step);
+        let mut points = Vec::new();
+        for x in grid(-HALF_X, HALF_X) {
+            for z in grid(-HALF_Z, HALF_Z) {
+                points.push((Vec3::new(x, 0.0, z), Vec3::Y));
+            }
+            for y in grid(0.0, HEIGHT) {
+                points.push((Vec3::new(x, y, -HALF_Z), Vec3::Z));
+                points.push((Vec3::new(x, y, HALF_Z), -Vec3::Z));
+            }
+        }
+        for z in grid(-HALF_Z, HALF_Z) {
+            for y in grid(0.0, HEIGHT) {
+                points.push((Vec3::new(-HALF_X, y, z), Vec3::X));
+                let window = (WINDOW_Z.0..=WINDOW_Z.1).contains(&z) && (WINDOW_Y.0..=WINDOW_Y.1).contains(&y);
+                if !window {
+                    points.push((Vec3::new(HALF_X, y, z), -Vec3::X));
+                }
+            }
+        }
+        for l in &s.lights[..16] {
+            let p = l.position().unwrap();
+            let lit: Vec<Vec3> = points.iter().filter(|(q, n)| l.is_relevant(*q, *n)).map(|(q, _)| *q).collect();
+            let shadowed = lit.iter().filter(|&&q| blocked(&casters, q, p)).count();
+            let fraction = shadowed as f32 / lit.len() as f32;
+            // Each lamp's furniture shadows cover at least 10% of the floor and wall points it
+            // reaches (the least, lamp 5 at chair height south of the table, has 12.8%; lamps 1-3
+            // have about 25%).
+            assert!(fraction >= 0.1, "{}: {shadowed} of {} points in its range are shadowed", l.name, lit.len());
+        }
     }
 }

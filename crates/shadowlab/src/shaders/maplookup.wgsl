@@ -16,13 +16,19 @@ struct MapParams {
 
 struct MapPoint {
     uvz: vec3<f32>,
+    // The view (index into `shadow_views`) the point falls in; its texture layer is `view_layer`.
     layer: u32,
     // World size of a texel at the point.
     texel: f32,
     on_map: bool,
 };
 
-// The view (layer) of `views_base + face` that covers p.
+// The texture layer that holds view `view`'s map.
+fn view_layer(view: u32) -> i32 {
+    return i32(shadow_views[view].range.z + 0.5);
+}
+
+// The view of `views_base + face` that covers p.
 fn map_layer(p: vec3<f32>, views_base: u32) -> u32 {
     if (map_params.bias.w > 0.5) {
         return views_base + cube_face(p - shadow_views[views_base].eye.xyz);
@@ -47,14 +53,14 @@ fn map_point(p: vec3<f32>, n: vec3<f32>, l: vec3<f32>, views_base: u32) -> MapPo
 @group(1) @binding(0) var shadow_maps: texture_depth_2d_array;
 @group(1) @binding(1) var shadow_sampler: sampler_comparison;
 
-// One comparison of depth `z` at an offset of `offset` texels in texture layer `layer`; 1 = lit.
+// One comparison of depth `z` at an offset of `offset` texels in view `layer`'s map; 1 = lit.
 fn map_tap_z(mp: MapPoint, offset: vec2<f32>, layer: u32, z: f32) -> f32 {
     let uv = mp.uvz.xy + offset / map_params.bias.z;
-    return textureSampleCompareLevel(shadow_maps, shadow_sampler, uv, i32(layer), z);
+    return textureSampleCompareLevel(shadow_maps, shadow_sampler, uv, view_layer(layer), z);
 }
 
 fn stored_depth(t: vec2<i32>, layer: u32) -> f32 {
-    return textureLoad(shadow_maps, t, i32(layer), 0);
+    return textureLoad(shadow_maps, t, view_layer(layer), 0);
 }
 // #else
 // Where comparison samplers of texture arrays do not work (wgpu's GL backend), the depths are read
@@ -68,7 +74,7 @@ fn map_compare(texel: vec2<i32>, layer: u32, z: f32) -> f32 {
     return select(0.0, 1.0, z >= stored_depth(t, layer));
 }
 
-// One comparison of depth `z` at an offset of `offset` texels in texture layer `layer`; 1 = lit.
+// One comparison of depth `z` at an offset of `offset` texels in view `layer`'s map; 1 = lit.
 fn map_tap_z(mp: MapPoint, offset: vec2<f32>, layer: u32, z: f32) -> f32 {
     let st = (mp.uvz.xy * map_params.bias.z) + offset;
     if (map_params.mode.x < 0.5) {
@@ -85,7 +91,7 @@ fn map_tap_z(mp: MapPoint, offset: vec2<f32>, layer: u32, z: f32) -> f32 {
 }
 
 fn stored_depth(t: vec2<i32>, layer: u32) -> f32 {
-    return textureLoad(shadow_maps, t, i32(layer), 0).r;
+    return textureLoad(shadow_maps, t, view_layer(layer), 0).r;
 }
 // #endif
 
@@ -96,7 +102,7 @@ fn map_depth(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
     return stored_depth(t, layer);
 }
 
-// One comparison tap at an offset of `offset` texels in texture layer `layer`; 1 = lit.
+// One comparison tap at an offset of `offset` texels in view `layer`'s map; 1 = lit.
 fn map_tap(mp: MapPoint, offset: vec2<f32>, layer: u32) -> f32 {
     return map_tap_z(mp, offset, layer, mp.uvz.z);
 }

@@ -13,13 +13,11 @@ struct SampleInfo {
 };
 
 const SET_PCF: u32 = 1u;
-const SET_SHARED_LAYERS: u32 = 2u;
 const SET_FIRST: u32 = 4u;
 
 struct SampleSet {
     // x: first sample; y: samples; z: views per sample (1 or 6); w: SET_* flags (3 × 3 PCF per
-    // sample; the samples share the first `z` layers (accumulation over passes); the first set of
-    // the frame, which overwrites the sums).
+    // sample; the first set of the frame, which overwrites the sums).
     index: vec4<u32>,
     // The eye-depth weight of the set (cssm's cascades; see `set_weight`): x, y: the depth range;
     // z: where the blend band at its far end starts; w: where the previous set's band starts.
@@ -51,10 +49,8 @@ fn sample_contribution(s: Surface, i: u32) -> vec2<f32> {
     if (!mp.on_map) {
         return vec2<f32>(w, w);
     }
-    var layer = mp.layer;
-    if ((sample_set.index.w & SET_SHARED_LAYERS) != 0u) {
-        layer = mp.layer - base;
-    }
+    // Samples that take turns in the same layers have those layers in their views' `range.z`.
+    let layer = mp.layer;
     var v = 0.0;
     if ((sample_set.index.w & SET_PCF) != 0u) {
         // Azri 2020 Eq. 3.8: a 3 × 3 PCF with one-texel offsets on every sample's map.

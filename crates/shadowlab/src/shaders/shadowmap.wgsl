@@ -7,7 +7,8 @@ struct ShadowView {
     eye: vec4<f32>,
     // xyz: unit axis; w: texel scale (world size of a texel, per unit distance for perspective views).
     axis: vec4<f32>,
-    // x, y: near and far distances along the axis.
+    // x, y: near and far distances along the axis; z: the texture layer that holds the view's map
+    // (views may share layers, or switch between a cached static map and its composite copy).
     range: vec4<f32>,
 };
 

@@ -25,7 +25,8 @@ use crate::context::Shared;
 use crate::depth_range::DepthRange;
 use crate::frame::VisibilityLayer;
 use crate::kernel;
-use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout, selection_layout};
+use crate::live::{MapViews, ShadowCache};
+use crate::shadowmap::{BiasUniform, FaceMode, Raster, lookup_group, lookup_layout, selection_layout};
 use crate::technique::{
     FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
 };
@@ -78,7 +79,12 @@ struct Cascaded {
 }
 
 struct State {
-    maps: ShadowMapArray,
+    maps: MapViews,
+    bias_buffer: wgpu::Buffer,
+    /// The maps' generation the lookup group was made for.
+    generation: u32,
+    /// Splits rendered by the last frame (the others were still valid).
+    rendered: u32,
     raster: Raster,
     lookup: wgpu::BindGroup,
     selection: wgpu::Buffer,
@@ -163,11 +169,11 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
 }
 
 impl Cascaded {
-    fn build(&self, shared: &Shared) -> State {
+    fn build(&self, shared: &Shared, cache: &mut ShadowCache) -> State {
         let device = &shared.gpu.device;
         let m = self.settings.splits.max(1) as u32;
         let size = self.settings.map_size;
-        let maps = ShadowMapArray::new(shared, size, m, m);
+        let maps = MapViews::new(shared, cache, size, m);
         let linear = self.params.choice("kernel") != "none";
         let bias = BiasUniform {
             values: Vec4::new(
@@ -179,7 +185,7 @@ impl Cascaded {
             mode: Vec4::new(if linear { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0),
         };
         let bias_buffer = crate::util::uniform_buffer(device, "cascaded bias", bytemuck::bytes_of(&bias));
-        let lookup = lookup_group(shared, &maps, &bias_buffer, linear);
+        let lookup = lookup_group(shared, &maps.maps, &bias_buffer, linear);
         let selection = crate::util::uniform_buffer(
             device,
             "selection",
@@ -190,9 +196,12 @@ impl Cascaded {
             layout: &selection_layout(shared),
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: selection.as_entire_binding() }],
         });
-        let bytes = maps.bytes() + bias_buffer.size() + selection.size() + self.kernel_bytes;
+        let bytes = bias_buffer.size() + selection.size() + self.kernel_bytes;
         State {
             maps,
+            bias_buffer,
+            generation: 0,
+            rendered: 0,
             raster: Raster {
                 faces: FaceMode::parse(self.params.choice("faces")),
                 slope_bias: self.params.float("slope_bias") as f32,
@@ -240,7 +249,7 @@ impl ShadowTechnique for Cascaded {
 
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
         if self.state.is_none() {
-            self.state = Some(self.build(ctx.shared));
+            self.state = Some(self.build(ctx.shared, ctx.cache));
         }
         let mut settings = self.settings.clone();
         if let Some(dr) = &mut self.depth_range {
@@ -254,7 +263,6 @@ impl ShadowTechnique for Cascaded {
         let frame = compute_cascades(ctx.light, &ctx.gpu_scene.bounds, &view, ctx.surface.camera.aspect(), &settings);
         let state = self.state.as_mut().expect("built above");
         let views: Vec<ShadowView> = frame.cascades.iter().map(|c| c.view).collect();
-        state.maps.set_views(&ctx.gpu.queue, 0, &views);
         let mut distances = [Vec4::ZERO; 5];
         for (i, d) in frame.split_distances().iter().enumerate().take(20) {
             distances[i / 4][i % 4] = *d;
@@ -270,9 +278,13 @@ impl ShadowTechnique for Cascaded {
             distances,
         };
         ctx.gpu.queue.write_buffer(&state.selection, 0, bytemuck::bytes_of(&sel));
-        state.draws = 0;
-        for layer in 0..views.len() as u32 {
-            state.draws += state.maps.render(ctx, layer, layer, &state.raster);
+        // Stabilised splits keep their views while the camera moves within a texel: their maps stay.
+        state.rendered = state.maps.update(ctx, &views, &state.raster, 0)?;
+        state.draws = state.maps.draws;
+        if state.generation != state.maps.generation() {
+            let linear = self.params.choice("kernel") != "none";
+            state.lookup = lookup_group(ctx.shared, &state.maps.maps, &state.bias_buffer, linear);
+            state.generation = state.maps.generation();
         }
         if let Some(dr) = &mut self.depth_range {
             dr.record(ctx.shared, ctx.encoder, ctx.surface, ctx.timer, ctx.frame_index);
@@ -296,10 +308,10 @@ impl ShadowTechnique for Cascaded {
     fn stats(&self) -> TechniqueStats {
         match &self.state {
             Some(s) => TechniqueStats {
-                memory_bytes: s.bytes + self.depth_range.as_ref().map_or(0, DepthRange::bytes),
-                passes: s.maps.layers + 1 + u32::from(self.depth_range.is_some()),
+                memory_bytes: s.bytes + s.maps.bytes() + self.depth_range.as_ref().map_or(0, DepthRange::bytes),
+                passes: s.rendered + 1 + u32::from(self.depth_range.is_some()),
                 draws: s.draws,
-                triangles: self.triangles * u64::from(s.maps.layers),
+                triangles: self.triangles * u64::from(s.rendered),
                 extra: self.report(),
             },
             None => TechniqueStats::default(),

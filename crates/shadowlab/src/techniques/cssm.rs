@@ -45,7 +45,7 @@ use shadowlab_core::{Aabb, Light, ParamSet, View};
 use super::sampled::{PATTERN, sample_frusta, sample_pipelines};
 use crate::context::Shared;
 use crate::frame::VisibilityLayer;
-use crate::sample_maps::{self, SET_FIRST, SET_PCF, SET_SHARED_LAYERS, SampleMaps, SetConfig, SetUniform};
+use crate::sample_maps::{self, SET_FIRST, SET_PCF, SampleMaps, SetConfig, SetUniform};
 use crate::shadowmap::{CONSTANT_BIAS, FACES, FaceMode, NORMAL_OFFSET, Raster, SLOPE_BIAS};
 use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
 
@@ -230,7 +230,7 @@ impl Cssm {
         }
         (0..samples)
             .map(|i| {
-                let flags = first.index[3] | SET_SHARED_LAYERS;
+                let flags = first.index[3];
                 let flags = if i == 0 { flags } else { flags & !SET_FIRST };
                 SetUniform { index: [i, 1, faces, flags], ..first }
             })
@@ -319,20 +319,23 @@ impl ShadowTechnique for Cssm {
                 .get(c)
                 .is_some_and(|k| k.size == size && k.set.samples == n && k.set.faces == faces && k.set.array == array);
             if keep {
-                let k = &self.cascades[c];
-                let views: Vec<_> = frusta.iter().flat_map(|f| f.views.iter().copied()).collect();
-                k.set.maps.set_views(&shared.gpu.queue, 0, &views);
+                let k = &mut self.cascades[c];
+                k.set.set_points(&shared.gpu.queue, &points);
+                k.set.set_views(&shared.gpu.queue, &frusta);
                 for (i, set) in sets.iter().enumerate() {
                     k.set.write_set(&shared.gpu.queue, i, set);
                 }
             } else {
+                if let Some(old) = self.cascades.get(c) {
+                    old.set.forget_items(ctx);
+                }
                 let config = SetConfig {
                     size,
                     array,
                     normal_offset: self.params.float("normal_offset") as f32,
                     constant_bias: self.params.float("constant_bias") as f32,
                 };
-                let maps = SampleMaps::new(shared, INFO.id, &points, &frusta, config, accum, &sets)?;
+                let maps = SampleMaps::new(shared, ctx.cache, INFO.id, &points, &frusta, config, accum, &sets)?;
                 let made = CascadeMaps { set: maps, size };
                 if c < self.cascades.len() {
                     self.cascades[c] = made;
@@ -341,7 +344,18 @@ impl ShadowTechnique for Cssm {
                 }
             }
         }
+        for old in self.cascades.iter().skip(m) {
+            old.set.forget_items(ctx);
+        }
         self.cascades.truncate(m);
+        // Fitted cascades keep their samples' maps while their views hold (a still camera).
+        self.draws = 0;
+        for k in &mut self.cascades {
+            k.set.update(ctx, &self.raster)?;
+            if let crate::sample_maps::SampleStorage::Cached(maps) = &k.set.storage {
+                self.draws += maps.draws;
+            }
+        }
         self.splits = splits;
         self.triangles = ctx.gpu_scene.triangles;
         Ok(())
@@ -352,14 +366,10 @@ impl ShadowTechnique for Cssm {
             return;
         }
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        // Array cascades: every map, then one lookup. Shared layers: each sample's maps, then its
-        // lookup, in turn. Cascade 0's first lookup starts the sums.
-        self.draws = 0;
+        // Array cascades (maps rendered in prepare): one lookup. Shared layers: each sample's maps,
+        // then its lookup, in turn. Cascade 0's first lookup starts the sums.
         for k in &self.cascades {
             if k.set.array {
-                for i in 0..k.set.samples {
-                    self.draws += k.set.render_sample(ctx, i, &self.raster);
-                }
                 k.set.dispatch(ctx, "cssm cascade", &self.accumulate, &group0, 0);
             } else {
                 for i in 0..k.set.samples {

@@ -6,8 +6,12 @@
 use shadowlab_core::ParamSet;
 
 use crate::frame::VisibilityLayer;
-use crate::shadowmap::LightMap;
+use crate::light_map::LightMap;
 use crate::technique::{FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_resolve};
+
+/// Rewrites the part of a technique's own uniform that depends on the light (PCSS's emitter size),
+/// when the light's emitter changes.
+pub(super) type OnLight = fn(&shadowlab_core::Light, &wgpu::Queue, &wgpu::Buffer);
 
 pub(super) struct MapLookup {
     id: &'static str,
@@ -18,6 +22,8 @@ pub(super) struct MapLookup {
     pipeline: wgpu::ComputePipeline,
     /// The technique's group 2 and the bytes its buffers hold.
     own: Option<(wgpu::BindGroup, u64)>,
+    /// The own uniform's light-dependent part, and the emitter version it was written for.
+    on_light: Option<(OnLight, wgpu::Buffer, u64)>,
     triangles: u64,
 }
 
@@ -29,7 +35,29 @@ impl MapLookup {
         pipeline: wgpu::ComputePipeline,
         own: Option<(wgpu::BindGroup, u64)>,
     ) -> Box<dyn ShadowTechnique> {
-        Box::new(Self { id, params: params.clone(), linear, map: None, pipeline, own, triangles: 0 })
+        Box::new(Self { id, params: params.clone(), linear, map: None, pipeline, own, on_light: None, triangles: 0 })
+    }
+
+    /// [`MapLookup::boxed`] whose own uniform `buffer` follows the light through `on_light`.
+    pub fn boxed_with_light(
+        id: &'static str,
+        params: &ParamSet,
+        linear: bool,
+        pipeline: wgpu::ComputePipeline,
+        own: (wgpu::BindGroup, u64),
+        on_light: OnLight,
+        buffer: wgpu::Buffer,
+    ) -> Box<dyn ShadowTechnique> {
+        Box::new(Self {
+            id,
+            params: params.clone(),
+            linear,
+            map: None,
+            pipeline,
+            own: Some(own),
+            on_light: Some((on_light, buffer, 0)),
+            triangles: 0,
+        })
     }
 }
 
@@ -44,19 +72,25 @@ impl ShadowTechnique for MapLookup {
 
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
         let (params, linear) = (&self.params, self.linear);
-        let map =
-            self.map.get_or_insert_with(|| LightMap::new(ctx.shared, ctx.light, &ctx.gpu_scene.bounds, params, linear));
-        map.render(ctx);
+        let map = self.map.get_or_insert_with(|| LightMap::new(ctx.shared, params, linear));
+        map.update(ctx)?;
+        if let Some((update, buffer, version)) = &mut self.on_light {
+            let now = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
+            if *version != now {
+                update(ctx.light, &ctx.gpu.queue, buffer);
+                *version = now;
+            }
+        }
         self.triangles = ctx.gpu_scene.triangles;
         Ok(())
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        let Some(map) = &self.map else { return };
+        let Some(group) = self.map.as_ref().and_then(LightMap::group) else { return };
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
         match &self.own {
-            Some((own, _)) => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, &map.group, own]),
-            None => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, &map.group]),
+            Some((own, _)) => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, group, own]),
+            None => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, group]),
         }
     }
 
@@ -73,6 +107,7 @@ impl ShadowTechnique for MapLookup {
     }
 
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
-        self.map.as_ref().map(|m| MapAnalysis { lookup: &m.group, selection: &m.selection })
+        let m = self.map.as_ref()?;
+        Some(MapAnalysis { lookup: m.group()?, selection: &m.selection })
     }
 }

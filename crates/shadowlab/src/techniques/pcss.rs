@@ -57,10 +57,7 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
 }
 
 fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let (size, nearest) = match light.emitter_extent() {
-        EmitterExtent::Radius(r) => (r, r),
-        EmitterExtent::Angle(t) => (t, 0.0),
-    };
+    let (size, nearest) = emitter_terms(light);
     let search = params.int("search_taps") as usize;
     let filter = params.int("filter_taps") as usize;
     let disk = kernel::poisson_disk(search.max(filter).min(kernel::MAX_TAPS));
@@ -90,5 +87,20 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         &[&lookup_layout(shared), &layout(shared)],
         &[],
     );
-    Ok(MapLookup::boxed(INFO.id, params, true, pipeline, Some((group, buffer.size()))))
+    let bytes = buffer.size();
+    Ok(MapLookup::boxed_with_light(INFO.id, params, true, pipeline, (group, bytes), write_emitter, buffer))
+}
+
+/// The emitter's size and nearest-blocker bound (`params.w`, `limits.w`), from the light as it is.
+fn emitter_terms(light: &Light) -> (f32, f32) {
+    match light.emitter_extent() {
+        EmitterExtent::Radius(r) => (r, r),
+        EmitterExtent::Angle(t) => (t, 0.0),
+    }
+}
+
+fn write_emitter(light: &Light, queue: &wgpu::Queue, buffer: &wgpu::Buffer) {
+    let (size, nearest) = emitter_terms(light);
+    queue.write_buffer(buffer, 12, bytemuck::bytes_of(&size));
+    queue.write_buffer(buffer, 28, bytemuck::bytes_of(&nearest));
 }

@@ -17,14 +17,12 @@
 
 use shadowlab_core::lightspace::{LightFrusta, directional_frustum, point_frusta_with};
 use shadowlab_core::params::ParamDef;
-use shadowlab_core::sampling::{EmitterSample, SamplePattern, emitter_points_with};
+use shadowlab_core::sampling::{EmitterPoint, EmitterSample, SamplePattern, emitter_points_with};
 use shadowlab_core::{Light, LightKind, ParamSet};
 
 use crate::context::Shared;
 use crate::frame::VisibilityLayer;
-use crate::sample_maps::{
-    self, SET_FIRST, SET_PCF, SET_SHARED_LAYERS, SampleMaps, SetConfig, SetUniform, uniform_layout,
-};
+use crate::sample_maps::{self, SET_FIRST, SET_PCF, SampleMaps, SetConfig, SetUniform, uniform_layout};
 use crate::shadowmap::{CONSTANT_BIAS, FACES, FaceMode, NORMAL_OFFSET, Raster, SLOPE_BIAS, lookup_layout};
 use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
 
@@ -64,11 +62,13 @@ struct Sampled {
     triangles: u64,
 }
 
-/// Built on the first frame, when the scene bounds and the surface size are known.
+/// Built on the first frame, when the scene bounds and the surface size are known; rebuilt when
+/// the surface size or the layout of the samples' views changes.
 struct State {
     set: SampleMaps,
     raster: Raster,
     accum_bytes: u64,
+    size: (u32, u32),
     draws: u32,
 }
 
@@ -114,13 +114,24 @@ pub(crate) fn sample_frusta(
 }
 
 impl Sampled {
-    fn build(&self, ctx: &FrameContext<'_>) -> Result<State, TechniqueError> {
-        let shared = ctx.shared;
+    /// The samples and their views as the light and the scene are now.
+    fn layout(&self, ctx: &FrameContext<'_>) -> (Vec<EmitterPoint>, Vec<LightFrusta>) {
         let size = self.params.int("map_size") as u32;
         let pattern = SamplePattern::parse(self.params.choice("pattern")).unwrap_or(SamplePattern::Grid);
         let points = emitter_points_with(ctx.light, self.params.int("samples") as u32, pattern);
         let samples: Vec<EmitterSample> = points.iter().map(|p| p.sample).collect();
         let frusta = sample_frusta(ctx.light, &samples, &ctx.gpu_scene.bounds, size);
+        (points, frusta)
+    }
+
+    fn build(
+        &self,
+        ctx: &mut FrameContext<'_>,
+        points: &[EmitterPoint],
+        frusta: &[LightFrusta],
+    ) -> Result<State, TechniqueError> {
+        let shared = ctx.shared;
+        let size = self.params.int("map_size") as u32;
         let faces = frusta[0].views.len() as u32;
         let n = points.len() as u32;
         let array = self.params.choice("mode") == "array";
@@ -128,18 +139,17 @@ impl Sampled {
         let sets: Vec<SetUniform> = if array {
             vec![SetUniform::all(0, n, faces, pcf | SET_FIRST)]
         } else {
-            (0..n)
-                .map(|i| SetUniform::all(i, 1, faces, pcf | SET_SHARED_LAYERS | if i == 0 { SET_FIRST } else { 0 }))
-                .collect()
+            (0..n).map(|i| SetUniform::all(i, 1, faces, pcf | if i == 0 { SET_FIRST } else { 0 })).collect()
         };
-        let accum = sample_maps::accumulation_buffer(shared, ctx.surface.width, ctx.surface.height);
+        let (w, h) = (ctx.surface.width, ctx.surface.height);
+        let accum = sample_maps::accumulation_buffer(shared, w, h);
         let config = SetConfig {
             size,
             array,
             normal_offset: self.params.float("normal_offset") as f32,
             constant_bias: self.params.float("constant_bias") as f32,
         };
-        let set = SampleMaps::new(shared, INFO.id, &points, &frusta, config, &accum, &sets)?;
+        let set = SampleMaps::new(shared, ctx.cache, INFO.id, points, frusta, config, &accum, &sets)?;
         Ok(State {
             set,
             raster: Raster {
@@ -147,6 +157,7 @@ impl Sampled {
                 slope_bias: self.params.float("slope_bias") as f32,
             },
             accum_bytes: accum.size(),
+            size: (w, h),
             draws: 0,
         })
     }
@@ -161,25 +172,42 @@ impl ShadowTechnique for Sampled {
         &self.params
     }
 
+    /// Array mode: renders the samples' views that are not valid (cached across frames).
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
-        if self.state.is_none() {
-            self.state = Some(self.build(ctx)?);
+        let (points, frusta) = self.layout(ctx);
+        let size = (ctx.surface.width, ctx.surface.height);
+        let faces = frusta[0].views.len() as u32;
+        let keep = self
+            .state
+            .as_ref()
+            .is_some_and(|s| s.size == size && s.set.samples == points.len() as u32 && s.set.faces == faces);
+        if keep {
+            let state = self.state.as_mut().expect("checked");
+            state.set.set_points(&ctx.gpu.queue, &points);
+            state.set.set_views(&ctx.gpu.queue, &frusta);
+        } else {
+            if let Some(old) = &self.state {
+                old.set.forget_items(ctx);
+            }
+            self.state = Some(self.build(ctx, &points, &frusta)?);
         }
+        let state = self.state.as_mut().expect("made above");
+        state.set.update(ctx, &state.raster)?;
+        state.draws = match &state.set.storage {
+            crate::sample_maps::SampleStorage::Cached(m) => m.draws,
+            crate::sample_maps::SampleStorage::Shared(_) => 0,
+        };
         self.triangles = ctx.gpu_scene.triangles;
         Ok(())
     }
 
-    /// Array mode: renders every map, then one lookup pass. Accumulation: renders and looks up
-    /// the samples one after the other. Then writes V.
+    /// Array mode: one lookup pass over the cached maps. Accumulation: renders and looks up the
+    /// samples one after the other (nothing is kept). Then writes V.
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let Some(state) = &mut self.state else { return };
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
         let set = &state.set;
-        state.draws = 0;
         if set.array {
-            for i in 0..set.samples {
-                state.draws += set.render_sample(ctx, i, &state.raster);
-            }
             set.dispatch(ctx, "sampled lookup", &self.accumulate, &group0, 0);
         } else {
             for i in 0..set.samples {
@@ -194,11 +222,12 @@ impl ShadowTechnique for Sampled {
         match &self.state {
             Some(s) => {
                 let lookups = if s.set.array { 1 } else { s.set.samples };
+                let rendered = if s.set.array { s.set.rendered } else { s.set.samples * s.set.faces };
                 TechniqueStats {
                     memory_bytes: s.set.bytes() + s.accum_bytes,
-                    passes: s.set.samples * s.set.faces + lookups + 1,
+                    passes: rendered + lookups + 1,
                     draws: s.draws,
-                    triangles: self.triangles * u64::from(s.set.samples * s.set.faces),
+                    triangles: self.triangles * u64::from(rendered),
                     extra: vec![
                         ("samples".into(), f64::from(s.set.samples)),
                         ("views_per_sample".into(), f64::from(s.set.faces)),

@@ -23,7 +23,8 @@ use shadowlab_core::{EmitterExtent, Light, ParamSet, Scene, Topology};
 
 use crate::context::{Shared, uniform_entry};
 use crate::frame::VisibilityLayer;
-use crate::shadowmap::{LightMap, SHADOW_FORMAT, lookup_layout, matrices_layout};
+use crate::light_map::LightMap;
+use crate::shadowmap::{SHADOW_FORMAT, lookup_layout, matrices_layout};
 use crate::technique::{
     FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
 };
@@ -141,9 +142,7 @@ fn render_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
 }
 
 fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let emitter = match light.emitter_extent() {
-        EmitterExtent::Radius(r) | EmitterExtent::Angle(r) => r,
-    };
+    let emitter = emitter_size(light);
     let uniform =
         crate::util::uniform_buffer(&shared.gpu.device, "smoothies", bytemuck::cast_slice(&[emitter, 0.0, 0.0, 0.0]));
     let resolve = shared.resolve_pipeline(
@@ -163,6 +162,13 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         triangles: 0,
         smoothie_triangles: 0,
     }))
+}
+
+/// The emitter's radius (local lights) or the tangent of its angular radius (the sun).
+fn emitter_size(light: &Light) -> f32 {
+    match light.emitter_extent() {
+        EmitterExtent::Radius(r) | EmitterExtent::Angle(r) => r,
+    }
 }
 
 /// The smoothies of every caster for `light`, as a flat vertex list (position, offset).
@@ -185,7 +191,9 @@ fn scene_smoothies(scene: &Scene, topologies: &MeshTopologies, light: &Light, em
         }
     };
     let mut out = Vec::new();
-    for inst in scene.instances.iter().filter(|i| i.casts_shadows) {
+    // Temporary (dragged) objects have a pass of their own.
+    for inst in scene.instances.iter().filter(|i| i.casts_shadows && i.mobility != shadowlab_core::Mobility::Temporary)
+    {
         let topo = &topologies.0[inst.mesh.index()];
         if topo.triangles.is_empty() {
             continue;
@@ -201,8 +209,8 @@ fn scene_smoothies(scene: &Scene, topologies: &MeshTopologies, light: &Light, em
 impl Smoothies {
     fn build(&self, shared: &Shared, map: &LightMap) -> SmoothieState {
         let device = &shared.gpu.device;
-        let size = map.maps.size;
-        let layers = map.maps.layers;
+        let size = map.maps.as_ref().map_or(1, |m| m.size());
+        let layers = map.frusta.views.len().max(1) as u32;
         let make = |label: &str, format| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -240,9 +248,6 @@ impl Smoothies {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        for (i, v) in map.frusta.views.iter().enumerate() {
-            shared.gpu.queue.write_buffer(&matrices, i as u64 * stride, bytemuck::bytes_of(&v.view_projection));
-        }
         let matrices_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("smoothie matrices"),
             layout: &matrices_layout(shared),
@@ -293,14 +298,27 @@ impl ShadowTechnique for Smoothies {
 
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
         let shared = ctx.shared;
-        let map =
-            self.map.get_or_insert_with(|| LightMap::new(shared, ctx.light, &ctx.gpu_scene.bounds, &self.params, true));
-        map.render(ctx);
-        if self.state.is_none() {
+        let map = self.map.get_or_insert_with(|| LightMap::new(shared, &self.params, true));
+        map.update(ctx)?;
+        let emitter = emitter_size(ctx.light);
+        if emitter != self.emitter {
+            self.emitter = emitter;
+            shared.gpu.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&emitter));
+        }
+        let layers = map.frusta.views.len();
+        if self.state.as_ref().is_none_or(|s| s.color_layers.len() != layers) {
             let state = self.build(shared, self.map.as_ref().expect("made above"));
             self.state = Some(state);
         }
         let state = self.state.as_mut().expect("built above");
+        let map = self.map.as_ref().expect("made above");
+        for (i, v) in map.frusta.views.iter().enumerate() {
+            shared.gpu.queue.write_buffer(
+                &state.matrices,
+                i as u64 * state.stride,
+                bytemuck::bytes_of(&v.view_projection),
+            );
+        }
         let topologies: Arc<MeshTopologies> = shared
             .resource("mesh topologies", || MeshTopologies(ctx.scene.meshes.iter().map(Topology::build).collect()));
         let vertices = scene_smoothies(ctx.scene, &topologies, ctx.light, self.emitter);
@@ -353,9 +371,9 @@ impl ShadowTechnique for Smoothies {
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        let (Some(map), Some(state)) = (&self.map, &self.state) else { return };
+        let (Some(group), Some(state)) = (self.map.as_ref().and_then(LightMap::group), &self.state) else { return };
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(ctx, "smoothies", &self.resolve, &[&group0, &map.group, &state.group]);
+        dispatch_resolve(ctx, "smoothies", &self.resolve, &[&group0, group, &state.group]);
     }
 
     fn stats(&self) -> TechniqueStats {
@@ -380,6 +398,7 @@ impl ShadowTechnique for Smoothies {
     }
 
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
-        self.map.as_ref().map(|m| MapAnalysis { lookup: &m.group, selection: &m.selection })
+        let m = self.map.as_ref()?;
+        Some(MapAnalysis { lookup: m.group()?, selection: &m.selection })
     }
 }

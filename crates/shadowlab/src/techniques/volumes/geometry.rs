@@ -122,11 +122,12 @@ pub(super) struct Caster {
 }
 
 impl Caster {
+    /// Every permanent caster (temporary, dragged objects have a pass of their own).
     pub fn all(scene: &Scene, topology: &VolumeTopology) -> Vec<Caster> {
         scene
             .instances
             .iter()
-            .filter(|i| i.casts_shadows)
+            .filter(|i| i.casts_shadows && i.mobility != shadowlab_core::Mobility::Temporary)
             .filter(|i| topology.meshes[i.mesh.index()].faces > 0)
             .map(|i| {
                 let mesh = scene.mesh(i.mesh);

@@ -38,7 +38,8 @@ use self::geometry::{Caster, CasterRecord, VolumeTopology};
 use self::plan::{FrameView, Method, Mode, SamplePlan, Settings};
 use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
-use crate::shadowmap::{LightMap, lookup_layout};
+use crate::light_map::LightMap;
+use crate::shadowmap::lookup_layout;
 use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
 use crate::timing::PassKind;
 
@@ -119,6 +120,8 @@ struct Volumes {
     crop: bool,
     samples: Vec<EmitterPoint>,
     state: Option<State>,
+    /// The light's emitter version the samples were taken from.
+    emitter_version: u64,
     /// The last frame's plans (methods, for the stats).
     plans: Vec<SamplePlan>,
     frames: u64,
@@ -140,6 +143,11 @@ struct VolumeStats {
 struct State {
     topology: Arc<VolumeTopology>,
     casters: Vec<Caster>,
+    /// The scene epoch the casters and receivers were taken at.
+    epoch: u64,
+    /// What the buffers were sized for: more casters or faces need a new state.
+    max_casters: usize,
+    max_faces: u64,
     caster_bounds: shadowlab_core::Aabb,
     size: (u32, u32),
     depth_stencil_view: wgpu::TextureView,
@@ -172,24 +180,42 @@ struct Receivers {
 }
 
 impl Receivers {
-    fn new(ctx: &FrameContext<'_>, params: &ParamSet) -> Self {
+    /// The permanent receivers' draws and model matrices.
+    fn models(ctx: &FrameContext<'_>) -> (Vec<(crate::gpu_scene::MeshRange, u32)>, Vec<Mat4>) {
         let mut models: Vec<Mat4> = Vec::new();
         let mut draws = Vec::new();
-        for inst in ctx.scene.instances.iter().filter(|i| i.role == Some(Role::Receiver)) {
+        let receivers = ctx.scene.instances.iter().filter(|i| i.role == Some(Role::Receiver));
+        for inst in receivers.filter(|i| i.mobility != shadowlab_core::Mobility::Temporary) {
             draws.push((ctx.gpu_scene.meshes[inst.mesh.index()], models.len() as u32));
             models.push(Mat4::from(inst.transform));
         }
         models.resize(models.len().max(1), Mat4::IDENTITY);
+        (draws, models)
+    }
+
+    fn new(ctx: &FrameContext<'_>, params: &ParamSet) -> Self {
+        let (draws, models) = Self::models(ctx);
         let instances = wgpu::util::DeviceExt::create_buffer_init(
             &ctx.gpu.device,
             &wgpu::util::BufferInitDescriptor {
                 label: Some("volume receivers"),
                 contents: bytemuck::cast_slice(&models),
-                usage: wgpu::BufferUsages::VERTEX,
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             },
         );
-        let map = LightMap::new(ctx.shared, ctx.light, &ctx.gpu_scene.bounds, params, false);
+        let map = LightMap::new(ctx.shared, params, false);
         Self { instances, draws, map }
+    }
+
+    /// Takes the receivers as they are now; `false` when there are more than the buffer holds.
+    fn refresh(&mut self, ctx: &FrameContext<'_>) -> bool {
+        let (draws, models) = Self::models(ctx);
+        if (models.len() * std::mem::size_of::<Mat4>()) as u64 > self.instances.size() {
+            return false;
+        }
+        ctx.gpu.queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&models));
+        self.draws = draws;
+        true
     }
 }
 
@@ -209,20 +235,14 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
                 .into(),
         });
     }
-    let n = params.int("samples").max(1) as u32;
-    let samples = if n == 1 || light.is_hard() {
-        let mut centre = light.clone();
-        centre.scale_emitter(0.0);
-        emitter_points(&centre, 1)
-    } else {
-        emitter_points(light, n)
-    };
+    let samples = volume_samples(params, light);
     Ok(Box::new(Volumes {
         params: params.clone(),
         settings,
         crop: params.bool("crop"),
         samples,
         state: None,
+        emitter_version: 0,
         plans: Vec::new(),
         frames: 0,
         stats: VolumeStats::default(),
@@ -646,6 +666,38 @@ fn resolve_pipeline(shared: &Shared, entry: &str, crop: bool) -> wgpu::ComputePi
     }
 }
 
+/// The light's samples: its centre, or `samples` points on an area emitter.
+fn volume_samples(params: &ParamSet, light: &Light) -> Vec<EmitterPoint> {
+    let n = params.int("samples").max(1) as u32;
+    if n == 1 || light.is_hard() {
+        let mut centre = light.clone();
+        centre.scale_emitter(0.0);
+        emitter_points(&centre, 1)
+    } else {
+        emitter_points(light, n)
+    }
+}
+
+/// Writes the samples' uniforms (one per dynamic offset).
+fn write_samples(queue: &wgpu::Queue, buffer: &wgpu::Buffer, stride: u64, samples: &[EmitterPoint]) {
+    for (i, p) in samples.iter().enumerate() {
+        let position = match p.sample {
+            EmitterSample::Point(q) => q.extend(0.0),
+            EmitterSample::Direction(d) => d.extend(1.0),
+        };
+        let normal = p.sphere_normal.map(|n| n.extend(1.0)).unwrap_or(Vec4::ZERO);
+        let u = SampleUniform { position, normal, index: [i as u32, 0, 0, 0] };
+        queue.write_buffer(buffer, i as u64 * stride, bytemuck::bytes_of(&u));
+    }
+}
+
+/// The bounds of the casters' bounding spheres.
+fn caster_bounds(casters: &[Caster]) -> shadowlab_core::Aabb {
+    shadowlab_core::Aabb::from_points(
+        casters.iter().flat_map(|c| [c.centre - glam::Vec3::splat(c.radius), c.centre + glam::Vec3::splat(c.radius)]),
+    )
+}
+
 /// Aligned stride for dynamic uniform offsets.
 fn stride(device: &wgpu::Device, size: usize) -> u64 {
     let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(16);
@@ -734,15 +786,7 @@ impl Volumes {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        for (i, p) in self.samples.iter().enumerate() {
-            let position = match p.sample {
-                EmitterSample::Point(q) => q.extend(0.0),
-                EmitterSample::Direction(d) => d.extend(1.0),
-            };
-            let normal = p.sphere_normal.map(|n| n.extend(1.0)).unwrap_or(Vec4::ZERO);
-            let u = SampleUniform { position, normal, index: [i as u32, 0, 0, 0] };
-            shared.gpu.queue.write_buffer(&sample_buffer, i as u64 * sample_stride, bytemuck::bytes_of(&u));
-        }
+        write_samples(&shared.gpu.queue, &sample_buffer, sample_stride, &self.samples);
         let accum = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("volume accumulation"),
             size: if n > 1 { 8 * u64::from(w) * u64::from(h) } else { 16 },
@@ -791,14 +835,13 @@ impl Volumes {
                 .sum::<u64>();
         let receivers = self.crop.then(|| Receivers::new(ctx, &self.params));
         let bytes = bytes + receivers.as_ref().map_or(0, |r| r.instances.size() + r.map.bytes());
-        let caster_bounds = shadowlab_core::Aabb::from_points(
-            casters
-                .iter()
-                .flat_map(|c| [c.centre - glam::Vec3::splat(c.radius), c.centre + glam::Vec3::splat(c.radius)]),
-        );
+        let caster_bounds = caster_bounds(&casters);
         State {
             topology,
+            max_casters: casters.len(),
+            max_faces: faces,
             casters,
+            epoch: ctx.live.epoch(),
             caster_bounds,
             size: (w, h),
             depth_stencil_view,
@@ -863,11 +906,45 @@ impl ShadowTechnique for Volumes {
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
         self.read_stats(&ctx.gpu.device);
         let size = (ctx.surface.width, ctx.surface.height);
+        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
+        if emitter != self.emitter_version {
+            // The light moved or changed size: new samples (and new buffers when their count changed).
+            let samples = volume_samples(&self.params, ctx.light);
+            if samples.len() != self.samples.len() {
+                self.state = None;
+            } else if let Some(state) = &self.state {
+                write_samples(&ctx.gpu.queue, &state.sample_buffer, state.sample_stride, &samples);
+            }
+            self.samples = samples;
+            self.emitter_version = emitter;
+        }
+        if let Some(state) = self.state.as_mut()
+            && state.size == size
+            && state.epoch != ctx.live.epoch()
+        {
+            // The scene changed: take its casters and receivers as they are now, in the same buffers
+            // when they fit.
+            let casters = Caster::all(ctx.scene, &state.topology);
+            let faces: u64 = casters.iter().map(|c| u64::from(state.topology.meshes[c.mesh].faces)).sum();
+            let receivers_fit = state.receivers.as_mut().is_none_or(|r| r.refresh(ctx));
+            if casters.len() <= state.max_casters && faces <= state.max_faces && receivers_fit {
+                state.caster_bounds = caster_bounds(&casters);
+                state.casters = casters;
+                state.epoch = ctx.live.epoch();
+            } else {
+                if let Some(r) = &state.receivers
+                    && let Some(maps) = &r.map.maps
+                {
+                    maps.forget_items(ctx);
+                }
+                self.state = None;
+            }
+        }
         if self.state.as_ref().is_none_or(|s| s.size != size) {
             self.state = Some(self.build(ctx));
         }
         if let Some(r) = self.state.as_mut().and_then(|s| s.receivers.as_mut()) {
-            r.map.render(ctx);
+            r.map.update(ctx)?;
         }
         let Some(state) = &self.state else { return Ok(()) };
         let cam = &ctx.surface.camera;
@@ -1127,7 +1204,7 @@ impl ShadowTechnique for Volumes {
             let offset = (i as u64 * state.sample_stride) as u32;
             match &state.receivers {
                 Some(r) => {
-                    pass.set_bind_group(1, Some(&r.map.group), &[]);
+                    pass.set_bind_group(1, r.map.group(), &[]);
                     pass.set_bind_group(2, Some(&sample_group), &[offset]);
                 }
                 None => pass.set_bind_group(1, Some(&sample_group), &[offset]),
@@ -1148,7 +1225,7 @@ impl ShadowTechnique for Volumes {
             pass.set_bind_group(0, Some(&group0), &[]);
             match &state.receivers {
                 Some(r) => {
-                    pass.set_bind_group(1, Some(&r.map.group), &[]);
+                    pass.set_bind_group(1, r.map.group(), &[]);
                     pass.set_bind_group(2, Some(&sample_group), &[0]);
                 }
                 None => pass.set_bind_group(1, Some(&sample_group), &[0]),

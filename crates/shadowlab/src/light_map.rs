@@ -1,0 +1,99 @@
+//! A light's hard shadow map from its centre, cached across frames: the views of
+//! [`light_frusta`] (six cube faces, one cone or one orthographic box, fitted to the scene's bounds)
+//! in a [`MapViews`], with the bias uniform and the bind groups of `shaders/maplookup.wgsl`. Used by
+//! `hard`, `pcf`, `pcss`, `blurred`, `smoothies` and `volumes` (cropped receivers).
+
+use glam::Vec4;
+use shadowlab_core::ParamSet;
+use shadowlab_core::lightspace::{LightFrusta, light_frusta};
+
+use crate::context::Shared;
+use crate::live::MapViews;
+use crate::live::validity::hash_values;
+use crate::shadowmap::{BiasUniform, FaceMode, Raster, lookup_group, single_selection};
+use crate::technique::{FrameContext, TechniqueError};
+
+pub struct LightMap {
+    /// `None` until the first update (the views need the light and the scene's bounds).
+    pub maps: Option<MapViews>,
+    pub frusta: LightFrusta,
+    pub raster: Raster,
+    size: u32,
+    linear: bool,
+    bias: BiasUniform,
+    params: wgpu::Buffer,
+    group: Option<(wgpu::BindGroup, u32)>,
+    /// One map (or one cube) for `shaders/selection.wgsl`.
+    pub selection: wgpu::BindGroup,
+    /// Views rendered by the last update.
+    rendered: u32,
+}
+
+impl LightMap {
+    /// From the map parameters in `p` (`map_size`, `faces`, `slope_bias`, `normal_offset`,
+    /// `constant_bias`); `linear` selects bilinear comparison taps (2 × 2 PCF) over nearest ones.
+    pub fn new(shared: &Shared, p: &ParamSet, linear: bool) -> Self {
+        let size = p.int("map_size") as u32;
+        let bias = BiasUniform {
+            values: Vec4::new(p.float("normal_offset") as f32, p.float("constant_bias") as f32, size as f32, 0.0),
+            mode: Vec4::new(if linear { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0),
+        };
+        let params = crate::util::uniform_buffer(&shared.gpu.device, "map params", bytemuck::bytes_of(&bias));
+        let raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
+        Self {
+            maps: None,
+            frusta: LightFrusta { views: Vec::new(), cube: false },
+            raster,
+            size,
+            linear,
+            bias,
+            params,
+            group: None,
+            selection: single_selection(shared),
+            rendered: 0,
+        }
+    }
+
+    /// Fits the views to the light and the scene as they are now and renders the layers that are
+    /// not valid. Returns the views rendered.
+    pub fn update(&mut self, ctx: &mut FrameContext<'_>) -> Result<u32, TechniqueError> {
+        let frusta = light_frusta(ctx.light, &ctx.gpu_scene.bounds, self.size);
+        let n = frusta.views.len() as u32;
+        if self.maps.as_ref().is_none_or(|m| m.len() != n) {
+            if let Some(old) = &self.maps {
+                old.forget_items(ctx);
+            }
+            self.maps = Some(MapViews::new(ctx.shared, ctx.cache, self.size, n));
+            self.group = None;
+        }
+        let cube = if frusta.cube { 1.0 } else { 0.0 };
+        if self.bias.values.w != cube {
+            self.bias.values.w = cube;
+            ctx.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.bias));
+        }
+        let maps = self.maps.as_mut().expect("made above");
+        // The lookup offsets (normal offset, constant bias) do not change the maps' depths.
+        let extra = hash_values(&[f64::from(self.size)]);
+        self.rendered = maps.update(ctx, &frusta.views, &self.raster, extra)?;
+        if self.group.as_ref().is_none_or(|g| g.1 != maps.generation()) {
+            self.group = Some((lookup_group(ctx.shared, &maps.maps, &self.params, self.linear), maps.generation()));
+        }
+        self.frusta = frusta;
+        Ok(self.rendered)
+    }
+
+    /// Group 1 of `shaders/maplookup.wgsl` (after the first update).
+    pub fn group(&self) -> Option<&wgpu::BindGroup> {
+        self.group.as_ref().map(|g| &g.0)
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.maps.as_ref().map_or(0, MapViews::bytes) + self.params.size()
+    }
+
+    /// Passes, draws and triangles of the last update.
+    pub fn counts(&self, gpu_scene_triangles: u64) -> (u32, u32, u64) {
+        let draws = self.maps.as_ref().map_or(0, |m| m.draws);
+        (self.rendered, draws, gpu_scene_triangles * u64::from(self.rendered))
+    }
+}

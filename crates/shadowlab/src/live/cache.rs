@@ -1,0 +1,163 @@
+//! The one store of cached shadow items, shared by every technique of a live engine.
+//!
+//! An item is keyed by its light, its owner (one technique instance: a light's technique, or a
+//! shared resource) and its kind and index there; the store keeps the [`Signature`] it was built
+//! from. A technique asks [`ShadowCache::is_valid`] before rendering an item, renders it only when
+//! not, and records the new signature with [`ShadowCache::commit`]. Owners that drop or reallocate
+//! their GPU memory drop their records ([`ShadowCache::forget_owner`]), so the store never outgrows
+//! what is alive.
+
+use std::collections::HashMap;
+
+use shadowlab_core::LightId;
+
+use super::validity::{ItemKind, Signature};
+
+/// A cached item's address.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ItemKey {
+    pub light: LightId,
+    /// The technique instance (or shared resource) that holds the item's memory.
+    pub owner: u32,
+    /// The set of items within the owner (one allocation: a map array): never reused, so a new
+    /// allocation cannot inherit the records of one it replaced.
+    pub set: u32,
+    pub kind: ItemKind,
+    pub index: u32,
+}
+
+/// Work done in one frame, by what was (re)built: the `work` of `timeline.json`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Work {
+    /// Map views rendered (static layers, composite layers, uncached views).
+    pub map_views: u32,
+    /// Of those, composite layers (a static copy with the dynamic casters drawn over it).
+    pub composite_views: u32,
+    /// Emitter samples rendered into receiver light maps.
+    pub lightmap_samples: u32,
+    /// Objects whose silhouettes and volumes were extracted for a light.
+    pub volume_objects: u32,
+    /// Views rendered for temporary (dragged) objects: every frame while they are dragged.
+    pub temporary_views: u32,
+    /// Items found valid and reused.
+    pub reused: u32,
+}
+
+impl Work {
+    /// `(name, count)` of every counter, for reports.
+    pub fn counts(&self) -> [(&'static str, u32); 6] {
+        [
+            ("map_views", self.map_views),
+            ("composite_views", self.composite_views),
+            ("lightmap_samples", self.lightmap_samples),
+            ("volume_objects", self.volume_objects),
+            ("temporary_views", self.temporary_views),
+            ("reused", self.reused),
+        ]
+    }
+
+    /// Whether anything was rebuilt (reuse does not count).
+    pub fn rebuilt_anything(&self) -> bool {
+        self.map_views + self.lightmap_samples + self.volume_objects + self.temporary_views > 0
+    }
+}
+
+/// The store.
+#[derive(Debug)]
+pub struct ShadowCache {
+    records: HashMap<ItemKey, Signature>,
+    enabled: bool,
+    next_owner: u32,
+    /// Bumped whenever records are dropped, so that quick checks made earlier do not outlive them.
+    generation: u64,
+    /// This frame's work so far.
+    pub work: Work,
+}
+
+impl Default for ShadowCache {
+    fn default() -> Self {
+        Self { records: HashMap::new(), enabled: true, next_owner: 1, generation: 0, work: Work::default() }
+    }
+}
+
+impl ShadowCache {
+    /// Whether items are kept across frames. Disabled, every item is rebuilt every frame (the
+    /// uncached engine the cached one is measured and checked against).
+    pub fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    pub fn set_enabled(&mut self, on: bool) {
+        self.enabled = on;
+        self.clear();
+    }
+
+    /// Changes whenever records are dropped.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// A fresh owner id (never reused, so a replaced technique's records cannot be mistaken for
+    /// its successor's).
+    pub fn new_owner(&mut self) -> u32 {
+        self.next_owner += 1;
+        self.next_owner
+    }
+
+    /// A fresh set id for [`ItemKey::set`].
+    pub fn new_set(&mut self) -> u32 {
+        self.next_owner += 1;
+        self.next_owner
+    }
+
+    /// Whether `key` holds what `signature` describes.
+    pub fn is_valid(&self, key: &ItemKey, signature: &Signature) -> bool {
+        self.enabled && self.records.get(key) == Some(signature)
+    }
+
+    /// Records that `key` now holds what `signature` describes.
+    pub fn commit(&mut self, key: ItemKey, signature: Signature) {
+        if self.enabled {
+            self.records.insert(key, signature);
+        }
+    }
+
+    /// Forgets one item (its memory was overwritten by something else).
+    pub fn forget(&mut self, key: &ItemKey) {
+        if self.records.remove(key).is_some() {
+            self.generation += 1;
+        }
+    }
+
+    /// Forgets every item of an owner (its memory was freed or reallocated).
+    pub fn forget_owner(&mut self, owner: u32) {
+        self.records.retain(|k, _| k.owner != owner);
+        self.generation += 1;
+    }
+
+    /// Forgets every item of a light.
+    pub fn forget_light(&mut self, light: LightId) {
+        self.records.retain(|k, _| k.light != light);
+        self.generation += 1;
+    }
+
+    /// Forgets everything (device memory lost).
+    pub fn clear(&mut self) {
+        self.records.clear();
+        self.generation += 1;
+    }
+
+    /// Items recorded.
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// Starts a frame's work counts.
+    pub fn begin_frame(&mut self) -> Work {
+        std::mem::take(&mut self.work)
+    }
+}

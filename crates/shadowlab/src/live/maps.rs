@@ -1,0 +1,273 @@
+//! Cached map views: the one mechanism by which every map-based technique keeps its shadow maps
+//! across frames (Filament's `ShadowMapManager` and Unity HDRP's mixed cached shadow maps are the
+//! models).
+//!
+//! Each view (a cube face, a cone, a cascade, an emitter sample's view) has a **static layer**
+//! holding the static casters, kept while its [`Signature`] holds (the light's emitter, the view
+//! itself, the static casters that reach it and their versions). When dynamic casters reach the
+//! view, a **composite layer** holds a copy of the static layer with those casters drawn over it,
+//! kept while they stand still; views no dynamic caster reaches are looked up in their static layer
+//! directly. Composite layers are allocated the first time a dynamic caster needs one (the array
+//! grows once, its static layers copied over); where the device cannot hold them, static and
+//! dynamic casters share the static layer and its signature names both.
+//!
+//! With caching disabled ([`super::ShadowCache::set_enabled`]) every view is rendered every frame
+//! with all permanent casters in one pass: the uncached engine the cached one is checked against.
+//! Temporary (dragged) casters are in no layer: they have a pass of their own
+//! ([`super::temporary`]).
+
+use shadowlab_core::Mobility;
+use shadowlab_core::lightspace::ShadowView;
+
+use super::cache::ItemKey;
+use super::validity::{ItemKind, Region, Signature, casters_in, view_hash};
+use crate::context::Shared;
+use crate::shadowmap::{PERMANENT, Raster, ShadowMapArray};
+use crate::technique::{FrameContext, TechniqueError};
+
+/// What a view was last checked against: when none of it changed, the view is valid without
+/// testing its casters again (a still frame costs nothing).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Checked {
+    epoch: u64,
+    view: u64,
+    cache_generation: u64,
+    layer: u32,
+}
+
+/// A light's views with their cached layers.
+pub struct MapViews {
+    pub maps: ShadowMapArray,
+    /// Views looked up (and rendered) by this set.
+    count: u32,
+    /// This allocation's set id in the cache's keys.
+    set: u32,
+    views: Vec<ShadowView>,
+    /// Per view: the texture layer lookups read this frame.
+    layers: Vec<u32>,
+    checked: Vec<Option<Checked>>,
+    /// Whether the array has a composite layer per view (layers `count..2·count`).
+    composite: bool,
+    /// Bumped when the texture is reallocated: bind groups over it must be made again.
+    generation: u32,
+    /// Draws issued by the last update.
+    pub draws: u32,
+}
+
+impl MapViews {
+    /// `count` views of `size`² texels, with a new set id from the cache.
+    pub fn new(shared: &Shared, cache: &mut super::ShadowCache, size: u32, count: u32) -> Self {
+        let count = count.max(1);
+        Self {
+            maps: ShadowMapArray::new(shared, size, count, count),
+            count,
+            set: cache.new_set(),
+            views: Vec::new(),
+            layers: vec![u32::MAX; count as usize],
+            checked: vec![None; count as usize],
+            composite: false,
+            generation: 0,
+            draws: 0,
+        }
+    }
+
+    /// Views in the set.
+    pub fn len(&self) -> u32 {
+        self.count
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    pub fn size(&self) -> u32 {
+        self.maps.size
+    }
+
+    /// Changes when the texture was reallocated (bind groups over `maps` must be made again).
+    pub fn generation(&self) -> u32 {
+        self.generation
+    }
+
+    /// The views of the last update.
+    pub fn views(&self) -> &[ShadowView] {
+        &self.views
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.maps.bytes()
+    }
+
+    fn key(&self, ctx: &FrameContext<'_>, kind: ItemKind, i: u32) -> ItemKey {
+        ItemKey { light: ctx.light_id, owner: ctx.owner, set: self.set, kind, index: i }
+    }
+
+    /// Whether the device can hold a composite layer per view.
+    fn composite_fits(&self, shared: &Shared) -> bool {
+        2 * self.count <= shared.gpu.device.limits().max_texture_array_layers
+    }
+
+    /// Sets this frame's views (`views.len()` must be [`MapViews::len`]) and renders the layers
+    /// that are not valid. `extra` is hashed into every view's signature: whatever else decides
+    /// what the maps hold (the technique's map parameters). Returns the views rendered.
+    pub fn update(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        views: &[ShadowView],
+        raster: &Raster,
+        extra: u64,
+    ) -> Result<u32, TechniqueError> {
+        if views.len() != self.count as usize {
+            return Err(TechniqueError::Failed {
+                id: "maps".into(),
+                message: format!("{} views for a set of {}", views.len(), self.count),
+            });
+        }
+        let queue = ctx.gpu.queue.clone();
+        if self.views != views {
+            self.maps.set_views_in(
+                &queue,
+                0,
+                views,
+                &self.layers.iter().map(|&l| l.min(self.count)).collect::<Vec<_>>(),
+            );
+            self.views = views.to_vec();
+            // Force the layers to be written below.
+            self.layers.iter_mut().for_each(|l| *l = u32::MAX);
+        }
+        let raster_hash = raster_hash(raster, self.maps.size, extra);
+        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
+        let (epoch, generation) = (ctx.live.epoch(), ctx.cache.generation());
+        self.draws = 0;
+        let mut rendered = 0;
+        for i in 0..self.count {
+            let view = self.views[i as usize];
+            let vh = view_hash(&view, &[raster_hash]);
+            let layer = if !ctx.cache.enabled() {
+                self.draws += self.maps.render_casters(ctx, i, i, raster, PERMANENT, true);
+                ctx.cache.work.map_views += 1;
+                rendered += 1;
+                i
+            } else if let Some(c) = self.checked[i as usize]
+                && c.epoch == epoch
+                && c.view == vh
+                && c.cache_generation == generation
+            {
+                ctx.cache.work.reused += 1;
+                c.layer
+            } else {
+                let layer = self.update_view(ctx, i, &view, vh, emitter, raster, &mut rendered)?;
+                self.checked[i as usize] =
+                    Some(Checked { epoch, view: vh, cache_generation: ctx.cache.generation(), layer });
+                layer
+            };
+            if self.layers[i as usize] != layer {
+                self.maps.set_view_layer(&queue, i, &view, layer);
+                self.layers[i as usize] = layer;
+            }
+        }
+        Ok(rendered)
+    }
+
+    /// Checks view `i` against the cache and renders what is stale; returns the layer to read.
+    #[allow(clippy::too_many_arguments)]
+    fn update_view(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        i: u32,
+        view: &ShadowView,
+        vh: u64,
+        emitter: u64,
+        raster: &Raster,
+        rendered: &mut u32,
+    ) -> Result<u32, TechniqueError> {
+        let region = Region::of_view(&view.view_projection, ctx.light);
+        let statics = casters_in(ctx.live, &region, &[Mobility::Static]);
+        let dynamics = casters_in(ctx.live, &region, &[Mobility::Dynamic]);
+        let static_key = self.key(ctx, ItemKind::StaticView, i);
+        let signature = |casters: Vec<_>| Signature { emitter, view: vh, casters, object: 0 };
+        let merged = || {
+            let mut all = statics.clone();
+            all.extend(dynamics.iter().copied());
+            all.sort_unstable();
+            all
+        };
+        if !dynamics.is_empty() && !self.composite && !self.composite_fits(ctx.shared) {
+            // No room for composite copies: both classes share the static layer.
+            let sig = signature(merged());
+            if ctx.cache.is_valid(&static_key, &sig) {
+                ctx.cache.work.reused += 1;
+            } else {
+                self.draws += self.maps.render_casters(ctx, i, i, raster, PERMANENT, true);
+                ctx.cache.commit(static_key, sig);
+                ctx.cache.work.map_views += 1;
+                *rendered += 1;
+            }
+            return Ok(i);
+        }
+        let static_sig = signature(statics.clone());
+        let static_fresh = ctx.cache.is_valid(&static_key, &static_sig);
+        if static_fresh {
+            ctx.cache.work.reused += 1;
+        } else {
+            self.draws += self.maps.render_casters(ctx, i, i, raster, &[Mobility::Static], true);
+            ctx.cache.commit(static_key, static_sig);
+            ctx.cache.work.map_views += 1;
+            *rendered += 1;
+        }
+        if dynamics.is_empty() {
+            return Ok(i);
+        }
+        if !self.composite {
+            self.grow_for_composites(ctx);
+        }
+        let composite_key = self.key(ctx, ItemKind::CompositeView, i);
+        let composite_sig = signature(merged());
+        let target = self.count + i;
+        if ctx.cache.is_valid(&composite_key, &composite_sig) {
+            ctx.cache.work.reused += 1;
+        } else {
+            self.maps.copy_layer(ctx.encoder, i, target);
+            self.draws += self.maps.render_casters(ctx, target, i, raster, &[Mobility::Dynamic], false);
+            ctx.cache.commit(composite_key, composite_sig);
+            ctx.cache.work.map_views += 1;
+            ctx.cache.work.composite_views += 1;
+            *rendered += 1;
+        }
+        Ok(target)
+    }
+
+    /// Drops this set's records from the cache (its memory is about to be freed or replaced).
+    pub fn forget_items(&self, ctx: &mut FrameContext<'_>) {
+        for i in 0..self.count {
+            for kind in [ItemKind::StaticView, ItemKind::CompositeView] {
+                let key = self.key(ctx, kind, i);
+                ctx.cache.forget(&key);
+            }
+        }
+    }
+
+    /// Gives every view a composite layer: the array doubles once, its static layers copied over.
+    fn grow_for_composites(&mut self, ctx: &mut FrameContext<'_>) {
+        let placeholder = ShadowMapArray::new(ctx.shared, 1, 1, 1);
+        let old = std::mem::replace(&mut self.maps, placeholder);
+        self.maps = old.grown(ctx.shared, ctx.encoder, 2 * self.count);
+        self.composite = true;
+        self.generation += 1;
+        // No composite layer holds anything yet.
+        for i in 0..self.count {
+            let key = self.key(ctx, ItemKind::CompositeView, i);
+            ctx.cache.forget(&key);
+        }
+    }
+}
+
+/// A hash of the raster state and map size (what, beside the view, decides a map's depths).
+fn raster_hash(raster: &Raster, size: u32, extra: u64) -> u64 {
+    let faces = match raster.faces {
+        crate::shadowmap::FaceMode::Back => 0u64,
+        crate::shadowmap::FaceMode::Front => 1,
+        crate::shadowmap::FaceMode::Both => 2,
+    };
+    faces ^ (u64::from(raster.slope_bias.to_bits()) << 2) ^ (u64::from(size) << 34) ^ extra.rotate_left(17)
+}

@@ -1,0 +1,151 @@
+//! Temporary (dragged) objects (Toromanoff 2005 §3.3, his option 5): while an instance is
+//! temporary, every cached item leaves it out, so dragging invalidates nothing; it casts through a
+//! pass of its own each frame instead: a small map per light fitted to the object (one frustum, or
+//! six faces when the light is inside its bounds; an orthographic box for directional lights),
+//! looked up after the light's technique has written its visibility, which is multiplied by the
+//! object's hard shadow. On release the object becomes permanent again and the items it reaches
+//! are rebuilt once (the validity table).
+//!
+//! Receivers beyond a map's far plane compare at depth 0 (everything stored is closer to the
+//! light): the object's shadow reaches as far as the light does.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec4;
+use shadowlab_core::lightspace::{ShadowView, light_frusta};
+use shadowlab_core::{Aabb, Mobility};
+
+use super::scene::LiveScene;
+use crate::context::{Shared, uniform_entry};
+use crate::frame::VisibilityLayer;
+use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
+use crate::technique::{FrameContext, dispatch_resolve};
+
+/// Texels per side of a temporary object's map: the object alone fills it.
+pub const MAP_SIZE: u32 = 1024;
+
+/// The bias of `hard`'s defaults (texels along the normal; slope-scaled raster bias).
+const NORMAL_OFFSET: f32 = 0.3;
+const SLOPE_BIAS: f32 = 1.5;
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct TemporaryUniform {
+    /// x: views.
+    counts: [u32; 4],
+}
+
+/// The temporary objects' shadows of every light, rebuilt each frame while any object is dragged.
+pub struct TemporaryShadows {
+    raw: Option<VisibilityLayer>,
+    maps: Option<(ShadowMapArray, wgpu::BindGroup)>,
+    bias: wgpu::Buffer,
+    counts: wgpu::Buffer,
+}
+
+impl TemporaryShadows {
+    pub fn new(shared: &Shared) -> Self {
+        let device = &shared.gpu.device;
+        let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, MAP_SIZE as f32, 0.0), mode: Vec4::ZERO };
+        Self {
+            raw: None,
+            maps: None,
+            bias: crate::util::uniform_buffer(device, "temporary bias", bytemuck::bytes_of(&bias)),
+            counts: crate::util::uniform_buffer(
+                device,
+                "temporary counts",
+                bytemuck::bytes_of(&TemporaryUniform { counts: [0; 4] }),
+            ),
+        }
+    }
+
+    /// Whether any shadow-casting instance is temporary.
+    pub fn active(&self, live: &LiveScene) -> bool {
+        live.scene().instances.iter().any(|i| i.mobility == Mobility::Temporary && i.casts_shadows)
+    }
+
+    /// The layer techniques write into while temporary objects exist (the pass multiplies it into
+    /// the light's own layer).
+    pub fn raw_layer(&mut self, shared: &Shared, width: u32, height: u32) -> &VisibilityLayer {
+        let stale = self.raw.as_ref().is_none_or(|r| (r.texture.width(), r.texture.height()) != (width, height));
+        if stale {
+            self.raw = Some(VisibilityLayer::new(&shared.gpu.device, width, height, "visibility before dragging"));
+        }
+        self.raw.as_ref().expect("made above")
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.raw.as_ref().map_or(0, VisibilityLayer::bytes) + self.maps.as_ref().map_or(0, |m| m.0.bytes())
+    }
+
+    /// Renders the temporary objects' maps for the context's light and writes `out` = the raw
+    /// layer × their shadows.
+    pub fn apply(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        let shared = ctx.shared;
+        let mut views: Vec<ShadowView> = Vec::new();
+        for (inst, state) in ctx.live.scene().instances.iter().zip(ctx.live.instances()) {
+            if inst.mobility == Mobility::Temporary && inst.casts_shadows {
+                views.extend(light_frusta(ctx.light, &padded(&state.bounds), MAP_SIZE).views);
+            }
+        }
+        let n = views.len() as u32;
+        if self.maps.as_ref().is_none_or(|(m, _)| m.layers < n) {
+            let maps = ShadowMapArray::new(shared, MAP_SIZE, n.max(1), n.max(1));
+            let group = lookup_group(shared, &maps, &self.bias, false);
+            self.maps = Some((maps, group));
+        }
+        let (maps, group) = self.maps.as_ref().expect("made above");
+        maps.set_views(&ctx.gpu.queue, 0, &views);
+        let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS };
+        for i in 0..n {
+            maps.render_casters(ctx, i, i, &raster, &[Mobility::Temporary], true);
+        }
+        ctx.cache.work.temporary_views += n;
+        ctx.gpu.queue.write_buffer(&self.counts, 0, bytemuck::bytes_of(&TemporaryUniform { counts: [n, 0, 0, 0] }));
+        let raw = self.raw.as_ref().expect("raw_layer comes first");
+        let device = &shared.gpu.device;
+        let own = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("temporary"),
+            layout: &layout(shared),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&raw.view) },
+                wgpu::BindGroupEntry { binding: 1, resource: self.counts.as_entire_binding() },
+            ],
+        });
+        let pipeline = shared.resolve_pipeline(
+            "temporary",
+            include_str!("temporary.wgsl"),
+            "main",
+            &[&lookup_layout(shared), &layout(shared)],
+            &[],
+        );
+        let group0 = shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        dispatch_resolve(ctx, "temporary objects", &pipeline, &[&group0, group, &own]);
+    }
+}
+
+/// An object's bounds with a little room, so that its silhouette never touches the map's border.
+fn padded(b: &Aabb) -> Aabb {
+    let e = glam::Vec3::splat(0.02 * b.diagonal().max(1e-4));
+    Aabb::new(b.min - e, b.max + e)
+}
+
+fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("temporary", || {
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("temporary"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                uniform_entry(1, wgpu::ShaderStages::COMPUTE),
+            ],
+        })
+    })
+}

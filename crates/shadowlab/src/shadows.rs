@@ -1,0 +1,276 @@
+//! [`Shadows`]: the part of shadowlab an application embeds. It owns the scene (through the live
+//! engine's [`LiveScene`]), uploads it once, shadows each light with its technique into a visibility
+//! layer per light, and keeps what it can across frames in one [`ShadowCache`].
+//!
+//! State and lifecycle: the scene changes only through [`Shadows::apply`] (typed edits, checked
+//! before anything changes), the output size only through [`Shadows::resize`]; each
+//! [`Shadows::record`] brings the GPU copy of the instances up to date, rewrites the uniforms of
+//! lights whose colour or emitter changed, and lets every technique re-render only the items whose
+//! signatures changed (DESIGN.md §11).
+
+use shadowlab_core::{LightId, Scene};
+
+use crate::context::Shared;
+use crate::frame::{LightUniform, SurfaceInputs, VisibilityLayer};
+use crate::gpu::Gpu;
+use crate::gpu_scene::GpuScene;
+use crate::live::temporary::TemporaryShadows;
+use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Work};
+use crate::registry::TechniqueSpec;
+use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueStats};
+use crate::timing::GpuTimer;
+use crate::util;
+
+/// One light's shadowing: its technique and its visibility layer.
+pub(crate) struct LightShadow {
+    pub light: LightId,
+    pub spec: TechniqueSpec,
+    pub technique: Box<dyn ShadowTechnique>,
+    pub layer: VisibilityLayer,
+    pub light_buffer: wgpu::Buffer,
+    /// The technique's owner id in the cache.
+    owner: u32,
+    /// The light's colour version its uniform was written from (emitter edits bump it too).
+    uniform_version: u64,
+}
+
+/// Shadows for every light of a scene over one surface: what an application embeds.
+pub struct Shadows {
+    shared: Shared,
+    live: LiveScene,
+    gpu_scene: GpuScene,
+    pub(crate) lights: Vec<LightShadow>,
+    cache: ShadowCache,
+    temporary: TemporaryShadows,
+    frame_index: u64,
+    /// Instances changed since the GPU copy was written.
+    instances_dirty: bool,
+    size: (u32, u32),
+}
+
+impl Shadows {
+    /// Uploads the scene. No light is shadowed until [`Shadows::set_technique`].
+    pub fn new(gpu: &Gpu, scene: Scene) -> Self {
+        let shared = Shared::new(gpu);
+        let gpu_scene = GpuScene::new(&gpu.device, &scene);
+        let temporary = TemporaryShadows::new(&shared);
+        Self {
+            shared,
+            live: LiveScene::new(scene),
+            gpu_scene,
+            lights: Vec::new(),
+            cache: ShadowCache::default(),
+            temporary,
+            frame_index: 0,
+            instances_dirty: false,
+            size: (0, 0),
+        }
+    }
+
+    /// The scene as it is now (after every applied edit).
+    pub fn scene(&self) -> &Scene {
+        self.live.scene()
+    }
+
+    /// The scene with its stable ids and versions.
+    pub fn live(&self) -> &LiveScene {
+        &self.live
+    }
+
+    /// The scene's GPU buffers (an application drawing its own G-buffer binds them).
+    pub fn gpu_scene(&self) -> &GpuScene {
+        &self.gpu_scene
+    }
+
+    pub fn shared(&self) -> &Shared {
+        &self.shared
+    }
+
+    /// The lights with a technique, in id order.
+    pub fn shadowed_lights(&self) -> impl Iterator<Item = LightId> + '_ {
+        self.lights.iter().map(|s| s.light)
+    }
+
+    /// The visibility layer of a shadowed light.
+    pub fn layer(&self, light: LightId) -> Option<&VisibilityLayer> {
+        self.lights.iter().find(|s| s.light == light).map(|s| &s.layer)
+    }
+
+    /// The technique spec of a shadowed light, as given.
+    pub fn spec(&self, light: LightId) -> Option<&TechniqueSpec> {
+        self.lights.iter().find(|s| s.light == light).map(|s| &s.spec)
+    }
+
+    /// Shadows `light` with the technique of `spec` (replacing its previous one), writing a layer
+    /// of `width × height`.
+    pub fn set_technique(
+        &mut self,
+        light: LightId,
+        spec: &TechniqueSpec,
+        width: u32,
+        height: u32,
+    ) -> Result<(), TechniqueError> {
+        let l = self.live.light(light).ok_or_else(|| TechniqueError::Failed {
+            id: spec.info.id.to_owned(),
+            message: format!("no light {}", light.0),
+        })?;
+        let technique = spec.create(&self.shared, l)?;
+        let device = &self.shared.gpu.device;
+        let light_buffer = util::uniform_buffer(device, &l.name, bytemuck::bytes_of(&LightUniform::new(l)));
+        let layer = VisibilityLayer::new(device, width, height, &format!("visibility {}", l.name));
+        let uniform_version = self.live.light_state(light).map_or(0, |s| s.colour_version);
+        if let Some(old) = self.lights.iter().find(|s| s.light == light) {
+            self.cache.forget_owner(old.owner);
+        }
+        self.lights.retain(|s| s.light != light);
+        let owner = self.cache.new_owner();
+        self.lights.push(LightShadow {
+            light,
+            spec: spec.clone(),
+            technique,
+            layer,
+            light_buffer,
+            owner,
+            uniform_version,
+        });
+        self.lights.sort_by_key(|s| s.light);
+        self.size = (width, height);
+        Ok(())
+    }
+
+    /// Applies a scene edit between frames. A bad edit is an error and changes nothing.
+    pub fn apply(&mut self, edit: Edit) -> Result<Applied, EditError> {
+        let applied = self.live.apply(edit)?;
+        match applied.kind {
+            EditKind::RemoveLight => {
+                if let Some(light) = applied.light {
+                    self.lights.retain(|s| s.light != light);
+                    self.cache.forget_light(light);
+                }
+            }
+            EditKind::LightColour | EditKind::LightEmitter | EditKind::AddLight => {}
+            _ => self.instances_dirty = true,
+        }
+        Ok(applied)
+    }
+
+    /// Resizes every visibility layer (the techniques adapt their screen-sized buffers).
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), EditError> {
+        let max = self.shared.gpu.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(EditError::BadSize { width, height, message: format!("each side must be in 1..={max}") });
+        }
+        let device = &self.shared.gpu.device;
+        for s in &mut self.lights {
+            let name = self.live.light(s.light).map_or("light", |l| l.name.as_str());
+            s.layer = VisibilityLayer::new(device, width, height, &format!("visibility {name}"));
+        }
+        self.size = (width, height);
+        Ok(())
+    }
+
+    /// Keeps shadow items across frames (the default), or rebuilds every item every frame.
+    pub fn set_caching(&mut self, on: bool) {
+        self.cache.set_enabled(on);
+    }
+
+    pub fn caching(&self) -> bool {
+        self.cache.enabled()
+    }
+
+    /// The cache's records (items kept).
+    pub fn cached_items(&self) -> usize {
+        self.cache.len()
+    }
+
+    /// Forgets every cached item, as if the GPU memory had been lost: the next frame rebuilds all.
+    pub fn invalidate_all(&mut self) {
+        self.cache.clear();
+    }
+
+    /// A new engine on the same state (scene, lights' techniques, output size) that caches
+    /// nothing: what the live engine is checked against. Its light ids are the lights' indices.
+    pub fn fresh(&self) -> Result<Shadows, TechniqueError> {
+        let mut fresh = Shadows::new(&self.shared.gpu, self.scene().clone());
+        fresh.set_caching(false);
+        for s in &self.lights {
+            let index = self.live.light_index(s.light).expect("shadowed lights exist");
+            fresh.set_technique(LightId(index as u32), &s.spec, s.layer.texture.width(), s.layer.texture.height())?;
+        }
+        Ok(fresh)
+    }
+
+    /// Records every light's prepare and resolve into `encoder`; returns what was re-rendered.
+    pub fn record(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        surface: &SurfaceInputs,
+        timer: &mut GpuTimer,
+    ) -> Result<Work, TechniqueError> {
+        let gpu = self.shared.gpu.clone();
+        if self.instances_dirty {
+            self.gpu_scene.sync(&gpu.device, &gpu.queue, self.live.scene());
+            self.instances_dirty = false;
+        }
+        for s in &mut self.lights {
+            let Some(state) = self.live.light_state(s.light) else { continue };
+            if state.colour_version != s.uniform_version {
+                let light = self.live.light(s.light).expect("state implies light");
+                gpu.queue.write_buffer(&s.light_buffer, 0, bytemuck::bytes_of(&LightUniform::new(light)));
+                s.uniform_version = state.colour_version;
+            }
+        }
+        for s in &mut self.lights {
+            let Some(light) = self.live.light(s.light) else { continue };
+            let mut ctx = FrameContext {
+                gpu: &gpu,
+                shared: &self.shared,
+                encoder,
+                scene: self.live.scene(),
+                gpu_scene: &self.gpu_scene,
+                surface,
+                light,
+                light_id: s.light,
+                light_buffer: &s.light_buffer,
+                timer,
+                frame_index: self.frame_index,
+                live: &self.live,
+                cache: &mut self.cache,
+                owner: s.owner,
+            };
+            s.technique.prepare(&mut ctx)?;
+            if self.temporary.active(&self.live) {
+                let raw = self.temporary.raw_layer(&self.shared, surface.width, surface.height);
+                s.technique.resolve(&mut ctx, raw);
+                self.temporary.apply(&mut ctx, &s.layer);
+            } else {
+                s.technique.resolve(&mut ctx, &s.layer);
+            }
+        }
+        self.frame_index += 1;
+        Ok(self.cache.begin_frame())
+    }
+
+    /// Memory, passes and draws of all techniques together.
+    pub fn stats(&self) -> TechniqueStats {
+        self.lights.iter().fold(TechniqueStats::default(), |a, s| {
+            let t = s.technique.stats();
+            let light = self.live.light(s.light).map_or("?", |l| l.name.as_str());
+            let mut extra = a.extra;
+            extra.extend(t.extra.into_iter().map(|(k, v)| (format!("{light}: {k}"), v)));
+            TechniqueStats {
+                memory_bytes: a.memory_bytes + t.memory_bytes + s.layer.bytes(),
+                passes: a.passes + t.passes,
+                draws: a.draws + t.draws,
+                triangles: a.triangles + t.triangles,
+                extra,
+            }
+        })
+    }
+
+    /// GPU bytes held for shadows: every technique's maps and buffers, the visibility layers and
+    /// the temporary objects' maps.
+    pub fn memory_bytes(&self) -> u64 {
+        self.stats().memory_bytes + self.temporary.bytes()
+    }
+}

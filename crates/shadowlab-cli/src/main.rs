@@ -35,6 +35,9 @@ enum Command {
     Bench(commands::bench::Args),
     /// Perspective aliasing of a light's maps: predicted curves and measured texels per pixel.
     Analyze(commands::analyze::Args),
+    /// Run a timeline of edits (drags, light changes, moves, camera) on the live engine: time and
+    /// work per frame, checks against a fresh engine and the truth; timeline.json, report.html.
+    Play(commands::play::Args),
 }
 
 fn main() {
@@ -47,6 +50,7 @@ fn main() {
         Command::Compare(a) => commands::compare::run(&cli.global, a),
         Command::Bench(a) => commands::bench::run(&cli.global, a),
         Command::Analyze(a) => commands::analyze::run(&cli.global, a),
+        Command::Play(a) => commands::play::run(&cli.global, a),
     };
     if let Err(e) = result {
         eprintln!("error: {}", chain_text(&e));

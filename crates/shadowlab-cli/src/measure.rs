@@ -1,5 +1,10 @@
 //! Rendering a technique for a number of frames and summarising its times (DESIGN.md §9: medians
 //! after warm-up, GPU time per pass from timestamps, CPU frame time beside it).
+//!
+//! Two figures per technique: the frame with nothing kept (the cache off: every map, light map and
+//! volume rebuilt, the cost of a frame where the light or everything in view changed: `gpu_ms`, as
+//! before the live engine), and the still frame of the live engine (`cached_gpu_ms`: only what
+//! must be redone each frame, e.g. lookups, stencil passes, camera-fitted views).
 
 use anyhow::Result;
 use serde_json::{Value, json};
@@ -62,10 +67,14 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 /// A technique rendered and timed: the renderer stays for readbacks.
 pub struct Measured {
     pub renderer: Renderer,
+    /// Frames with the cache off (everything rebuilt every frame).
     pub timing: Timing,
+    /// Still frames with the cache on.
+    pub cached: Timing,
 }
 
-/// Renders `warmup + frames` frames of `spec`; `tick` is called after each frame.
+/// Renders `warmup + frames` frames of `spec` uncached, then `warmup + frames` with the cache on;
+/// `tick` is called after each frame.
 pub fn measure(
     gpu: &shadowlab::Gpu,
     setup: &Setup,
@@ -75,12 +84,20 @@ pub fn measure(
     tick: &dyn Fn(),
 ) -> Result<Measured> {
     let mut r = renderer(gpu, setup, spec)?;
-    let mut reports = Vec::with_capacity(warmup + frames);
-    for _ in 0..warmup + frames.max(1) {
-        reports.push(r.render()?);
-        tick();
-    }
-    Ok(Measured { timing: Timing::from_reports(&reports, warmup), renderer: r })
+    let run = |r: &mut Renderer| -> Result<Timing> {
+        let mut reports = Vec::with_capacity(warmup + frames);
+        for _ in 0..warmup + frames.max(1) {
+            reports.push(r.render()?);
+            tick();
+        }
+        Ok(Timing::from_reports(&reports, warmup))
+    };
+    r.shadows.set_caching(false);
+    let timing = run(&mut r)?;
+    r.shadows.set_caching(true);
+    // The first cached frame fills the cache: it is part of the warm-up.
+    let cached = run(&mut r)?;
+    Ok(Measured { timing, cached, renderer: r })
 }
 
 #[cfg(test)]

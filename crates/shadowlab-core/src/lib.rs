@@ -24,6 +24,7 @@ pub mod material;
 pub mod mesh;
 pub mod params;
 pub mod primitives;
+pub mod receivers;
 pub mod sampling;
 pub mod scene;
 pub mod scenes;

@@ -120,6 +120,16 @@ pub struct SurfaceInputs {
     pub normal: wgpu::TextureView,
     pub camera: CameraUniform,
     pub camera_buffer: wgpu::Buffer,
+    /// Changes whenever the surface may have: a new camera, or [`SurfaceInputs::touch`]. With the
+    /// scene unchanged too, a light's visibility of the last frame still holds.
+    generation: u64,
+}
+
+/// Surface generations are unique across all surfaces.
+static SURFACE_GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+fn next_generation() -> u64 {
+    SURFACE_GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 impl SurfaceInputs {
@@ -132,13 +142,25 @@ impl SurfaceInputs {
         height: u32,
     ) -> Self {
         let camera_buffer = crate::util::uniform_buffer(device, "camera", bytemuck::bytes_of(&camera));
-        Self { width, height, depth, normal, camera, camera_buffer }
+        Self { width, height, depth, normal, camera, camera_buffer, generation: next_generation() }
     }
 
     /// Updates the camera (after the application moved it).
     pub fn set_camera(&mut self, queue: &wgpu::Queue, camera: CameraUniform) {
         self.camera = camera;
         queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(&camera));
+        self.touch();
+    }
+
+    /// Says that the depth or normal buffers changed (an application that draws them itself, with
+    /// things shadowlab does not know of, calls this every frame they change). The scene's own
+    /// edits and camera moves are tracked without it.
+    pub fn touch(&mut self) {
+        self.generation = next_generation();
+    }
+
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 }
 

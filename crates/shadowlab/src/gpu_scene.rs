@@ -87,6 +87,8 @@ pub struct GpuScene {
     closed: Vec<bool>,
     /// All groups; those with `casts_shadows` are the shadow casters.
     pub groups: Vec<DrawGroup>,
+    /// The instance-buffer slot of each scene instance (by index in `Scene::instances`).
+    pub slots: Vec<u32>,
     /// Bounds of every instance but temporary ones (what light views are fitted to).
     pub bounds: Aabb,
     pub caster_bounds: Aabb,
@@ -134,13 +136,15 @@ impl GpuScene {
             meshes,
             closed,
             groups: Vec::new(),
+            slots: Vec::new(),
             bounds: Aabb::EMPTY,
             caster_bounds: Aabb::EMPTY,
             triangles: 0,
             bytes: 0,
             capacity,
         };
-        let (data, groups) = gpu_scene.layout(scene);
+        let (data, groups, slots) = gpu_scene.layout(scene);
+        gpu_scene.slots = slots;
         // Written at creation (mapped), so that the first frame needs no queue write.
         gpu_scene.instances = init(
             "instances",
@@ -155,7 +159,8 @@ impl GpuScene {
     /// Brings the instance buffer and draw groups up to date with `scene` (after edits): the buffer
     /// is rewritten in place (reallocated only when the instances outgrow it); meshes stay.
     pub fn sync(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) {
-        let (data, groups) = self.layout(scene);
+        let (data, groups, slots) = self.layout(scene);
+        self.slots = slots;
         if data.len() > self.capacity {
             self.capacity = data.len().next_power_of_two();
             self.instances = instance_buffer(device, self.capacity);
@@ -197,14 +202,16 @@ impl GpuScene {
         (!inst.casts_shadows, inst.mobility, inst.mesh.index(), sided, inst.transform.matrix3.determinant() < 0.0)
     }
 
-    /// Instance data in draw order, and the groups over it.
-    fn layout(&self, scene: &Scene) -> (Vec<InstanceData>, Vec<DrawGroup>) {
+    /// Instance data in draw order, the groups over it, and each instance's slot.
+    fn layout(&self, scene: &Scene) -> (Vec<InstanceData>, Vec<DrawGroup>, Vec<u32>) {
         // Order instances so that each (caster, mobility, mesh, sidedness, mirror) group is contiguous.
         let mut order: Vec<usize> = (0..scene.instances.len()).collect();
         order.sort_by_key(|&i| self.key(scene, i));
         let mut data = Vec::with_capacity(order.len());
         let mut groups: Vec<DrawGroup> = Vec::new();
+        let mut slots = vec![0u32; order.len()];
         for (slot, &i) in order.iter().enumerate() {
+            slots[i] = slot as u32;
             let inst = &scene.instances[i];
             let mat = scene.material(inst.material);
             let model = glam::Mat4::from(inst.transform);
@@ -240,7 +247,7 @@ impl GpuScene {
                 }),
             }
         }
-        (data, groups)
+        (data, groups, slots)
     }
 
     /// The caster groups of the given mobilities.
@@ -254,6 +261,33 @@ impl GpuScene {
             let m = self.meshes[g.mesh];
             pass.draw_indexed(m.first_index..m.first_index + m.index_count, m.base_vertex, g.instances.clone());
         }
+    }
+
+    /// Issues the draws of `groups` without the instance in slot `skip` (a receiver left out of
+    /// its own light map).
+    pub fn draw_except<'g>(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        groups: impl Iterator<Item = &'g DrawGroup>,
+        skip: u32,
+    ) -> u32 {
+        let mut draws = 0;
+        for g in groups {
+            let m = self.meshes[g.mesh];
+            let indices = m.first_index..m.first_index + m.index_count;
+            if g.instances.contains(&skip) {
+                for range in [g.instances.start..skip, skip + 1..g.instances.end] {
+                    if !range.is_empty() {
+                        pass.draw_indexed(indices.clone(), m.base_vertex, range);
+                        draws += 1;
+                    }
+                }
+            } else {
+                pass.draw_indexed(indices, m.base_vertex, g.instances.clone());
+                draws += 1;
+            }
+        }
+        draws
     }
 
     /// Binds the vertex, instance and index buffers.

@@ -55,6 +55,10 @@ impl TechniqueSpec {
                 light_type: light.type_name(),
             });
         }
+        if let Some(compose) = &self.info.compose {
+            let inner = TechniqueSpec::parse(self.params.choice(compose.param), &[])?.create(shared, light)?;
+            return (compose.create)(shared, &self.params, light, inner);
+        }
         (self.info.create)(shared, &self.params, light)
     }
 }

@@ -208,6 +208,8 @@ impl Renderer {
         self.timer.begin_frame();
         let device = self.gpu.device.clone();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        // The G-buffer draws this frame's instances: edits reach the GPU first.
+        self.shadows.sync();
         self.gbuffer_pass(&mut encoder);
         let work = self.shadows.record(&mut encoder, &self.targets.surface, &mut self.timer)?;
         self.lighting_passes(&mut encoder, None);

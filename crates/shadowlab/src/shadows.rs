@@ -15,7 +15,8 @@ use crate::frame::{LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
 use crate::live::temporary::TemporaryShadows;
-use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Work};
+use crate::live::validity::screen_signature;
+use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Signature, Work};
 use crate::registry::TechniqueSpec;
 use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueStats};
 use crate::timing::GpuTimer;
@@ -32,6 +33,12 @@ pub(crate) struct LightShadow {
     owner: u32,
     /// The light's colour version its uniform was written from (emitter edits bump it too).
     uniform_version: u64,
+    /// What the layer was last resolved from ([`screen_signature`]): with it unchanged and nothing
+    /// re-rendered, the layer still holds (a still frame costs no lookup).
+    resolved: Option<Signature>,
+    /// The temporary (dragged) objects' maps for this light: each light its own, since every
+    /// light's views are written before the frame's commands run.
+    temporary: TemporaryShadows,
 }
 
 /// Shadows for every light of a scene over one surface: what an application embeds.
@@ -41,7 +48,6 @@ pub struct Shadows {
     gpu_scene: GpuScene,
     pub(crate) lights: Vec<LightShadow>,
     cache: ShadowCache,
-    temporary: TemporaryShadows,
     frame_index: u64,
     /// Instances changed since the GPU copy was written.
     instances_dirty: bool,
@@ -53,14 +59,12 @@ impl Shadows {
     pub fn new(gpu: &Gpu, scene: Scene) -> Self {
         let shared = Shared::new(gpu);
         let gpu_scene = GpuScene::new(&gpu.device, &scene);
-        let temporary = TemporaryShadows::new(&shared);
         Self {
             shared,
             live: LiveScene::new(scene),
             gpu_scene,
             lights: Vec::new(),
             cache: ShadowCache::default(),
-            temporary,
             frame_index: 0,
             instances_dirty: false,
             size: (0, 0),
@@ -132,6 +136,8 @@ impl Shadows {
             light_buffer,
             owner,
             uniform_version,
+            resolved: None,
+            temporary: TemporaryShadows::new(&self.shared),
         });
         self.lights.sort_by_key(|s| s.light);
         self.size = (width, height);
@@ -164,6 +170,7 @@ impl Shadows {
         for s in &mut self.lights {
             let name = self.live.light(s.light).map_or("light", |l| l.name.as_str());
             s.layer = VisibilityLayer::new(device, width, height, &format!("visibility {name}"));
+            s.resolved = None;
         }
         self.size = (width, height);
         Ok(())
@@ -200,6 +207,17 @@ impl Shadows {
         Ok(fresh)
     }
 
+    /// Brings the GPU copy of the instances up to date with the edits applied since the last frame
+    /// (done by [`Shadows::record`] too; an application that draws its own G-buffer from
+    /// [`Shadows::gpu_scene`] calls it before drawing).
+    pub fn sync(&mut self) {
+        if self.instances_dirty {
+            let gpu = &self.shared.gpu;
+            self.gpu_scene.sync(&gpu.device, &gpu.queue, self.live.scene());
+            self.instances_dirty = false;
+        }
+    }
+
     /// Records every light's prepare and resolve into `encoder`; returns what was re-rendered.
     pub fn record(
         &mut self,
@@ -208,10 +226,7 @@ impl Shadows {
         timer: &mut GpuTimer,
     ) -> Result<Work, TechniqueError> {
         let gpu = self.shared.gpu.clone();
-        if self.instances_dirty {
-            self.gpu_scene.sync(&gpu.device, &gpu.queue, self.live.scene());
-            self.instances_dirty = false;
-        }
+        self.sync();
         for s in &mut self.lights {
             let Some(state) = self.live.light_state(s.light) else { continue };
             if state.colour_version != s.uniform_version {
@@ -238,11 +253,24 @@ impl Shadows {
                 cache: &mut self.cache,
                 owner: s.owner,
             };
+            let before = ctx.cache.work;
             s.technique.prepare(&mut ctx)?;
-            if self.temporary.active(&self.live) {
-                let raw = self.temporary.raw_layer(&self.shared, surface.width, surface.height);
+            let rebuilt = {
+                let w = ctx.cache.work;
+                (w.map_views, w.lightmap_samples, w.volume_objects, w.temporary_views)
+                    != (before.map_views, before.lightmap_samples, before.volume_objects, before.temporary_views)
+            };
+            let now = screen_signature(&self.live, s.light, surface.generation());
+            let temporary = TemporaryShadows::active(&self.live);
+            if ctx.cache.enabled() && !rebuilt && !temporary && s.resolved.as_ref() == Some(&now) {
+                continue;
+            }
+            ctx.cache.work.resolves += 1;
+            s.resolved = Some(now);
+            if temporary {
+                let raw = s.temporary.raw_layer(&self.shared, surface.width, surface.height);
                 s.technique.resolve(&mut ctx, raw);
-                self.temporary.apply(&mut ctx, &s.layer);
+                s.temporary.apply(&mut ctx, &s.layer);
             } else {
                 s.technique.resolve(&mut ctx, &s.layer);
             }
@@ -271,6 +299,6 @@ impl Shadows {
     /// GPU bytes held for shadows: every technique's maps and buffers, the visibility layers and
     /// the temporary objects' maps.
     pub fn memory_bytes(&self) -> u64 {
-        self.stats().memory_bytes + self.temporary.bytes()
+        self.stats().memory_bytes + self.lights.iter().map(|s| s.temporary.bytes()).sum::<u64>()
     }
 }

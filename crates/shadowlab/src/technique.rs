@@ -112,7 +112,22 @@ pub struct TechniqueInfo {
     /// Light types it shadows (`point`, `spot`, `directional`, `rect`).
     pub light_types: &'static [&'static str],
     pub create: Constructor,
+    /// For a technique that shadows some pixels itself and hands the others to another technique
+    /// (`lightmaps`: receivers from light maps, the rest by `volumes`), how it wraps that one.
+    pub compose: Option<Compose>,
 }
+
+/// How a technique wraps another: the parameter naming the other technique (created by the
+/// registry, so techniques need not know each other), and the constructor that takes it.
+#[derive(Debug)]
+pub struct Compose {
+    pub param: &'static str,
+    pub create: ComposeConstructor,
+}
+
+/// How to make a technique around another one.
+pub type ComposeConstructor =
+    fn(&Shared, &ParamSet, &Light, Box<dyn ShadowTechnique>) -> Result<Box<dyn ShadowTechnique>, TechniqueError>;
 
 impl TechniqueInfo {
     pub fn supports(&self, light: &Light) -> bool {

@@ -23,6 +23,7 @@ const TECHNIQUES: &[&str] = &[
     "cascaded:splits=2,stabilize=true,map_size=512",
     "smoothies:map_size=512",
     "volumes",
+    "lightmaps:samples=9,texel=0.05,rest=hard",
 ];
 
 /// Soft techniques may differ from a fresh engine by float rounding of sums in another order;
@@ -206,4 +207,84 @@ fn every_edit_leaves_the_live_engine_equal_to_a_fresh_one() {
         let _ = keeps_everything;
         println!("{spec}: ok");
     }
+}
+
+/// `volumes` keeps each (light sample, object) silhouette and volume while neither the light nor the
+/// object changed (Toromanoff 2005 §3.2's table): a still frame extracts nothing, a moved object
+/// only its own volumes, a colour change nothing, a light move only that light's; and after each,
+/// the live engine equals a fresh one.
+#[test]
+fn volumes_re_extract_only_the_objects_and_lights_that_changed() {
+    // Two samples per light: the room's lamps and the sun are area emitters.
+    let mut live = Live::new(load_scene("room").unwrap().scene, "volumes:samples=2");
+    let samples_of = |live: &Live, light: &str| {
+        let key = format!("{light}: samples");
+        let stats = live.renderer.shadows.stats();
+        stats.extra.iter().find(|(k, _)| *k == key).map_or(0, |(_, v)| *v as u32)
+    };
+    let names: Vec<String> = live.renderer.scene().lights.iter().map(|l| l.name.clone()).collect();
+    let first = live.check("first frame");
+    let samples: Vec<u32> = names.iter().map(|n| samples_of(&live, n)).collect();
+    let all_samples: u32 = samples.iter().sum();
+    // Every light shadowed, two samples each (measured: 4 lights, 8 samples).
+    assert!(samples.iter().all(|&s| s == 2), "samples per light: {samples:?}");
+    let casters = first.volume_objects / all_samples;
+    println!("first frame: {first:?}; {casters} casters, {all_samples} samples");
+    // The room's permanent casters (measured 23; at least 10, so that "only one" means something);
+    // every (sample, caster) is extracted once.
+    assert!(casters >= 10 && first.volume_objects == casters * all_samples, "{first:?}");
+
+    let still = live.check("still frame");
+    // Nothing changed: nothing extracted, every item reused.
+    assert_eq!(still.volume_objects, 0, "a still frame extracts {still:?}");
+    assert_eq!(still.reused, first.volume_objects, "every item is reused");
+
+    let chair = live.id("chair north-west");
+    let t = transform_of(&live, chair);
+    live.renderer.apply(Edit::Transform { instance: chair, transform: moved(t, Vec3::new(0.2, 0.0, 0.1)) }).unwrap();
+    let w = live.check("static chair moved");
+    // Exactly the chair, once per sample of every light.
+    assert_eq!(w.volume_objects, all_samples, "moving one object extracts {w:?}");
+
+    live.renderer
+        .apply(Edit::Light { light: LightId(0), change: LightChange::Color(Vec3::new(1.0, 0.2, 0.2)) })
+        .unwrap();
+    let w = live.check("colour");
+    assert_eq!(w.volume_objects, 0, "a colour change extracts {w:?}");
+
+    let lamp = live.renderer.scene().lights[0].position().unwrap();
+    live.renderer
+        .apply(Edit::Light { light: LightId(0), change: LightChange::Position(lamp + Vec3::new(0.3, -0.1, 0.2)) })
+        .unwrap();
+    let w = live.check("lamp moved");
+    // Every caster for the moved lamp's samples, nothing for the other lights.
+    assert_eq!(w.volume_objects, casters * samples[0], "moving a light extracts {w:?}");
+
+    // Slots follow instances: an added caster takes one, a removed one frees its own.
+    let cup = live.id("cup");
+    let copy = live.renderer.scene().instances[live.renderer.shadows.live().instance_index(cup).unwrap()].clone();
+    let added = live
+        .renderer
+        .apply(Edit::AddInstance(Box::new(shadowlab_core::Instance {
+            name: "second cup".into(),
+            transform: moved(copy.transform, Vec3::new(0.25, 0.0, 0.0)),
+            ..copy
+        })))
+        .unwrap();
+    let w = live.check("cup added");
+    assert_eq!(w.volume_objects, all_samples, "adding one object extracts {w:?}");
+    live.renderer.apply(Edit::RemoveInstance(chair)).unwrap();
+    let w = live.check("chair removed");
+    assert_eq!(w.volume_objects, 0, "removing an object extracts {w:?}");
+    live.renderer.apply(Edit::RemoveInstance(added.instance.unwrap())).unwrap();
+    live.check("cup removed");
+
+    // Neither the output size nor the camera decides a volume.
+    live.renderer.resize(80, 64).unwrap();
+    let w = live.check("resized");
+    assert_eq!(w.volume_objects, 0, "a resize extracts {w:?}");
+    let view = live.renderer.scene().view("table").unwrap().clone();
+    live.renderer.set_view(&view);
+    let w = live.check("camera moved");
+    assert_eq!(w.volume_objects, 0, "a camera move extracts {w:?}");
 }

@@ -33,13 +33,13 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let specs = args.techniques.specs(super::compare::DEFAULT_TECHNIQUES)?;
     let gpu = open_gpu(global)?;
     let (frames, warmup) = (args.frames as usize, args.warmup as usize);
-    let bar = progress::bar((specs.len() * (frames + warmup)) as u64, "bench");
+    let bar = progress::bar((2 * specs.len() * (frames + warmup)) as u64, "bench");
     let mut results = Vec::new();
     for spec in &specs {
         bar.set_message(format!("bench {}", spec.spec));
         let m = measure(&gpu, &setup, spec, warmup, frames, &|| bar.inc(1))?;
         let stats = m.renderer.shadows.stats();
-        results.push((spec.spec.clone(), spec.info.id, spec.params.to_json(), m.timing, stats));
+        results.push((spec.spec.clone(), spec.info.id, spec.params.to_json(), m.timing, stats, m.cached));
     }
     bar.finish_and_clear();
     // The baseline: plain `hard`, else the first `hard` with parameters (`hard:faces=front`).
@@ -53,15 +53,15 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         setup.scene.name, setup.view.name, setup.width, setup.height, frames, warmup, gpu.adapter
     );
     println!(
-        "{:<34} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>9}",
-        "technique", "frame ms", "gbuffer", "shadow", "visib.", "lighting", "CPU ms", "×hard", "MiB"
+        "{:<34} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>9} {:>9}",
+        "technique", "frame ms", "gbuffer", "shadow", "visib.", "lighting", "CPU ms", "×hard", "still ms", "MiB"
     );
     let mut json_rows = Vec::new();
-    for (spec, id, params, t, stats) in &results {
+    for (spec, id, params, t, stats, cached) in &results {
         let p = t.gpu_passes.unwrap_or([f64::NAN; 4]);
         let ratio = hard.map(|h| t.frame_ms() / h);
         println!(
-            "{:<34} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>7} {:>9.1}",
+            "{:<34} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>7} {:>9.2} {:>9.1}",
             spec,
             t.frame_ms(),
             p[0],
@@ -70,11 +70,13 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             p[3],
             t.cpu_median,
             ratio.map(|r| format!("{r:.2}")).unwrap_or_else(|| "–".into()),
+            cached.frame_ms(),
             stats.memory_bytes as f64 / (1024.0 * 1024.0)
         );
         json_rows.push(json!({
             "id": id, "spec": spec, "params": params,
             "gpu_ms": t.gpu_json(), "cpu_ms": { "median": t.cpu_median },
+            "cached_gpu_ms": cached.gpu_json(), "cached_cpu_ms": { "median": cached.cpu_median },
             "frames": t.frames, "warmup": t.warmup,
             "time_ratio_over_hard": ratio,
             "memory_bytes": stats.memory_bytes, "passes": stats.passes, "draws": stats.draws,

@@ -144,7 +144,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     // 3. The techniques.
     let frames = args.frames as usize;
     let warmup = args.warmup as usize;
-    let bar = progress::bar((specs.len() * (frames + warmup)) as u64, "techniques (GPU)");
+    let bar = progress::bar((2 * specs.len() * (frames + warmup)) as u64, "techniques (GPU)");
     let mut entries = Vec::new();
     let mut outcomes = Vec::new();
     let mut used = Vec::new();
@@ -196,6 +196,8 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "lights": light_entries,
             "gpu_ms": m.timing.gpu_json(),
             "cpu_ms": { "median": m.timing.cpu_median },
+            "cached_gpu_ms": m.cached.gpu_json(),
+            "cached_cpu_ms": { "median": m.cached.cpu_median },
             "memory_bytes": stats.memory_bytes,
             "frames": m.timing.frames, "warmup": m.timing.warmup,
             "passes": stats.passes, "draws": stats.draws, "shadow_triangles": stats.triangles,

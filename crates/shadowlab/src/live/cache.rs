@@ -41,11 +41,14 @@ pub struct Work {
     pub temporary_views: u32,
     /// Items found valid and reused.
     pub reused: u32,
+    /// Visibility layers written (a light whose maps, scene and surface did not change keeps its
+    /// layer of the last frame).
+    pub resolves: u32,
 }
 
 impl Work {
     /// `(name, count)` of every counter, for reports.
-    pub fn counts(&self) -> [(&'static str, u32); 6] {
+    pub fn counts(&self) -> [(&'static str, u32); 7] {
         [
             ("map_views", self.map_views),
             ("composite_views", self.composite_views),
@@ -53,6 +56,7 @@ impl Work {
             ("volume_objects", self.volume_objects),
             ("temporary_views", self.temporary_views),
             ("reused", self.reused),
+            ("resolves", self.resolves),
         ]
     }
 

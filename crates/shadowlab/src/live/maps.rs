@@ -20,7 +20,7 @@ use shadowlab_core::Mobility;
 use shadowlab_core::lightspace::ShadowView;
 
 use super::cache::ItemKey;
-use super::validity::{ItemKind, Region, Signature, casters_in, view_hash};
+use super::validity::{ItemKind, Region, view_hash, view_signatures};
 use crate::context::Shared;
 use crate::shadowmap::{PERMANENT, Raster, ShadowMapArray};
 use crate::technique::{FrameContext, TechniqueError};
@@ -136,7 +136,6 @@ impl MapViews {
             self.layers.iter_mut().for_each(|l| *l = u32::MAX);
         }
         let raster_hash = raster_hash(raster, self.maps.size, extra);
-        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
         let (epoch, generation) = (ctx.live.epoch(), ctx.cache.generation());
         self.draws = 0;
         let mut rendered = 0;
@@ -156,7 +155,7 @@ impl MapViews {
                 ctx.cache.work.reused += 1;
                 c.layer
             } else {
-                let layer = self.update_view(ctx, i, &view, vh, emitter, raster, &mut rendered)?;
+                let layer = self.update_view(ctx, i, &view, vh, raster, &mut rendered)?;
                 self.checked[i as usize] =
                     Some(Checked { epoch, view: vh, cache_generation: ctx.cache.generation(), layer });
                 layer
@@ -170,31 +169,21 @@ impl MapViews {
     }
 
     /// Checks view `i` against the cache and renders what is stale; returns the layer to read.
-    #[allow(clippy::too_many_arguments)]
     fn update_view(
         &mut self,
         ctx: &mut FrameContext<'_>,
         i: u32,
         view: &ShadowView,
         vh: u64,
-        emitter: u64,
         raster: &Raster,
         rendered: &mut u32,
     ) -> Result<u32, TechniqueError> {
         let region = Region::of_view(&view.view_projection, ctx.light);
-        let statics = casters_in(ctx.live, &region, &[Mobility::Static]);
-        let dynamics = casters_in(ctx.live, &region, &[Mobility::Dynamic]);
+        let (static_sig, composite_sig, has_dynamic) = view_signatures(ctx.live, ctx.light_id, &region, vh);
         let static_key = self.key(ctx, ItemKind::StaticView, i);
-        let signature = |casters: Vec<_>| Signature { emitter, view: vh, casters, object: 0 };
-        let merged = || {
-            let mut all = statics.clone();
-            all.extend(dynamics.iter().copied());
-            all.sort_unstable();
-            all
-        };
-        if !dynamics.is_empty() && !self.composite && !self.composite_fits(ctx.shared) {
+        if has_dynamic && !self.composite && !self.composite_fits(ctx.shared) {
             // No room for composite copies: both classes share the static layer.
-            let sig = signature(merged());
+            let sig = composite_sig;
             if ctx.cache.is_valid(&static_key, &sig) {
                 ctx.cache.work.reused += 1;
             } else {
@@ -205,7 +194,6 @@ impl MapViews {
             }
             return Ok(i);
         }
-        let static_sig = signature(statics.clone());
         let static_fresh = ctx.cache.is_valid(&static_key, &static_sig);
         if static_fresh {
             ctx.cache.work.reused += 1;
@@ -215,14 +203,13 @@ impl MapViews {
             ctx.cache.work.map_views += 1;
             *rendered += 1;
         }
-        if dynamics.is_empty() {
+        if !has_dynamic {
             return Ok(i);
         }
         if !self.composite {
             self.grow_for_composites(ctx);
         }
         let composite_key = self.key(ctx, ItemKind::CompositeView, i);
-        let composite_sig = signature(merged());
         let target = self.count + i;
         if ctx.cache.is_valid(&composite_key, &composite_sig) {
             ctx.cache.work.reused += 1;

@@ -47,6 +47,8 @@ pub struct LiveScene {
     next_light: u32,
     /// Bumped by every applied edit.
     epoch: u64,
+    /// Bumped by every edit of an instance (what the surface of the next frame may show).
+    instances_epoch: u64,
     /// Bounds of every instance but temporary ones: what light views are fitted to.
     fit_bounds: Aabb,
     fit_caster_bounds: Aabb,
@@ -83,6 +85,7 @@ impl LiveScene {
             next_instance,
             next_light,
             epoch: 0,
+            instances_epoch: 0,
             fit_bounds: Aabb::EMPTY,
             fit_caster_bounds: Aabb::EMPTY,
         };
@@ -97,6 +100,12 @@ impl LiveScene {
     /// Changes with every applied edit: items checked at this epoch need no new check.
     pub fn epoch(&self) -> u64 {
         self.epoch
+    }
+
+    /// Changes with every edit of an instance (moved, added, removed, mobility): the surface a camera
+    /// sees may have changed.
+    pub fn instances_epoch(&self) -> u64 {
+        self.instances_epoch
     }
 
     pub fn instances(&self) -> &[InstanceState] {
@@ -178,6 +187,9 @@ impl LiveScene {
     pub fn apply(&mut self, edit: Edit) -> Result<Applied, EditError> {
         let applied = self.apply_checked(edit)?;
         self.epoch += 1;
+        if applied.instance.is_some() {
+            self.instances_epoch += 1;
+        }
         self.refit();
         Ok(applied)
     }

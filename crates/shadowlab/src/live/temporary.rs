@@ -23,6 +23,9 @@ use crate::technique::{FrameContext, dispatch_resolve};
 /// Texels per side of a temporary object's map: the object alone fills it.
 pub const MAP_SIZE: u32 = 1024;
 
+/// Temporary views are allocated in groups of this many.
+const VIEW_STEP: u32 = 8;
+
 /// The bias of `hard`'s defaults (texels along the normal; slope-scaled raster bias).
 const NORMAL_OFFSET: f32 = 0.3;
 const SLOPE_BIAS: f32 = 1.5;
@@ -34,7 +37,7 @@ struct TemporaryUniform {
     counts: [u32; 4],
 }
 
-/// The temporary objects' shadows of every light, rebuilt each frame while any object is dragged.
+/// The temporary objects' shadows of one light, rebuilt each frame while any object is dragged.
 pub struct TemporaryShadows {
     raw: Option<VisibilityLayer>,
     maps: Option<(ShadowMapArray, wgpu::BindGroup)>,
@@ -59,7 +62,7 @@ impl TemporaryShadows {
     }
 
     /// Whether any shadow-casting instance is temporary.
-    pub fn active(&self, live: &LiveScene) -> bool {
+    pub fn active(live: &LiveScene) -> bool {
         live.scene().instances.iter().any(|i| i.mobility == Mobility::Temporary && i.casts_shadows)
     }
 
@@ -89,7 +92,10 @@ impl TemporaryShadows {
         }
         let n = views.len() as u32;
         if self.maps.as_ref().is_none_or(|(m, _)| m.layers < n) {
-            let maps = ShadowMapArray::new(shared, MAP_SIZE, n.max(1), n.max(1));
+            // Room for views in steps of eight, so that objects picked up and released in turn do
+            // not reallocate (and memory stays put under any sequence of drags).
+            let capacity = n.div_ceil(VIEW_STEP).max(1) * VIEW_STEP;
+            let maps = ShadowMapArray::new(shared, MAP_SIZE, capacity, capacity);
             let group = lookup_group(shared, &maps, &self.bias, false);
             self.maps = Some((maps, group));
         }

@@ -13,7 +13,7 @@ use std::hash::{Hash, Hasher};
 
 use glam::{Mat4, Vec3, Vec4};
 use shadowlab_core::lightspace::ShadowView;
-use shadowlab_core::{Aabb, Light, Mobility};
+use shadowlab_core::{Aabb, Light, LightId, Mobility};
 
 use super::edits::{EditKind, InstanceId};
 use super::scene::LiveScene;
@@ -30,7 +30,8 @@ pub enum ItemKind {
     LightMap,
     /// One object's silhouettes and volume geometry for one light (`volumes`).
     VolumeObject,
-    /// Screen-sized buffers: visibility layers, per-pixel sums, stencil buffers.
+    /// A light's visibility layer (and the screen-sized buffers behind it), kept across still
+    /// frames.
     ScreenBuffer,
 }
 
@@ -44,7 +45,7 @@ impl ItemKind {
             Self::CompositeView => "composite map view",
             Self::LightMap => "receiver light map",
             Self::VolumeObject => "object volume",
-            Self::ScreenBuffer => "screen buffer",
+            Self::ScreenBuffer => "visibility layer",
         }
     }
 
@@ -95,12 +96,17 @@ pub fn rule(edit: EditKind, item: ItemKind) -> Rule {
     use ItemKind as I;
     use Mobility::{Dynamic as D, Static as S, Temporary as T};
     match (edit, item) {
-        // Output buffers follow the output size, nothing else.
-        (EditKind::Resize, I::ScreenBuffer) => Rule::Always,
-        (EditKind::Resize, _) | (_, I::ScreenBuffer) => Rule::Never,
+        // A removed light's items go with it.
+        (EditKind::RemoveLight, _) => Rule::SameLight,
         // Visibility is colour-free (DESIGN.md §3).
         (EditKind::LightColour, _) => Rule::Never,
-        (EditKind::LightEmitter | EditKind::RemoveLight, _) => Rule::SameLight,
+        // A light's visibility layer holds while its light, the scene's instances and the surface
+        // (camera, size) do.
+        (EditKind::LightEmitter, I::ScreenBuffer) => Rule::SameLight,
+        (EditKind::AddLight, I::ScreenBuffer) => Rule::Never,
+        (_, I::ScreenBuffer) => Rule::Always,
+        (EditKind::Resize, _) => Rule::Never,
+        (EditKind::LightEmitter, _) => Rule::SameLight,
         // A new light's items are new; nothing else changes.
         (EditKind::AddLight, _) => Rule::Never,
         (EditKind::Camera, I::StaticView | I::CompositeView) => Rule::CameraFitted,
@@ -124,9 +130,9 @@ pub fn rule(edit: EditKind, item: ItemKind) -> Rule {
             match kind {
                 I::VolumeObject if from == T || to == T => Rule::SameObject,
                 I::VolumeObject => Rule::Never,
+                // Static ↔ dynamic takes a caster out of (or into) the static maps; a composite
+                // copy or a light map holds every permanent caster either way.
                 _ if held(from) != held(to) => Rule::Region,
-                // Static → dynamic moves a caster from the static map to the composite copy.
-                I::CompositeView if from != T && to != T => Rule::Region,
                 _ => Rule::Never,
             }
         }
@@ -252,6 +258,46 @@ pub fn any_caster_in(live: &LiveScene, region: &Region, classes: &[Mobility]) ->
         .any(|(inst, s)| inst.casts_shadows && classes.contains(&inst.mobility) && region.meets(&s.bounds))
 }
 
+/// The signatures of a map view's static layer (static casters) and of its composite copy (every
+/// permanent caster), and whether any dynamic caster reaches it (so that it needs the copy).
+pub fn view_signatures(live: &LiveScene, light: LightId, region: &Region, view: u64) -> (Signature, Signature, bool) {
+    let emitter = live.light_state(light).map_or(0, |s| s.emitter_version);
+    let statics = casters_in(live, region, &[Mobility::Static]);
+    let dynamics = casters_in(live, region, &[Mobility::Dynamic]);
+    let has_dynamic = !dynamics.is_empty();
+    let mut all = statics.clone();
+    all.extend(dynamics);
+    all.sort_unstable();
+    (
+        Signature { emitter, view, casters: statics, object: 0 },
+        Signature { emitter, view, casters: all, object: 0 },
+        has_dynamic,
+    )
+}
+
+/// The signature of a receiver's light map: the light's emitter, the patch (`view`), every
+/// permanent caster in `region` but the receiver itself, and the receiver's transform.
+pub fn lightmap_signature(live: &LiveScene, light: LightId, region: &Region, view: u64, receiver: usize) -> Signature {
+    let emitter = live.light_state(light).map_or(0, |s| s.emitter_version);
+    let receiver = live.instances()[receiver];
+    let mut casters = casters_in(live, region, &[Mobility::Static, Mobility::Dynamic]);
+    casters.retain(|(id, _)| *id != receiver.id);
+    Signature { emitter, view, casters, object: receiver.version }
+}
+
+/// The signature of one object's volume geometry for one light sample (`view`: the sample).
+pub fn volume_signature(live: &LiveScene, light: LightId, view: u64, object: usize) -> Signature {
+    let emitter = live.light_state(light).map_or(0, |s| s.emitter_version);
+    Signature { emitter, view, casters: Vec::new(), object: live.instances()[object].version }
+}
+
+/// The signature of a light's visibility layer: its emitter, the surface (`surface`: its
+/// generation, which changes with the camera and the size) and every instance edit.
+pub fn screen_signature(live: &LiveScene, light: LightId, surface: u64) -> Signature {
+    let emitter = live.light_state(light).map_or(0, |s| s.emitter_version);
+    Signature { emitter, view: surface, casters: Vec::new(), object: live.instances_epoch() }
+}
+
 /// A hash of a shadow view and whatever else decides what an item holds (raster state, size).
 pub fn view_hash(view: &ShadowView, extra: &[u64]) -> u64 {
     let mut h = std::hash::DefaultHasher::new();
@@ -275,4 +321,226 @@ pub fn hash_values(values: &[f64]) -> u64 {
         v.to_bits().hash(&mut h);
     }
     h.finish()
+}
+
+/// `size` rounded up to a multiple of `align` (dynamic uniform offsets).
+pub fn aligned(size: u64, align: u64) -> u64 {
+    size.div_ceil(align.max(1)) * align.max(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use glam::{Affine3A, Vec3};
+    use shadowlab_core::lightspace::light_frusta;
+    use shadowlab_core::receivers::planar_patches;
+    use shadowlab_core::{LightKind, load_scene};
+
+    use super::*;
+    use crate::live::{Edit, InstanceId, LightChange};
+
+    /// An item of the table test: its kind, its light, its region, what it belongs to.
+    #[derive(Debug, Clone)]
+    struct Item {
+        kind: ItemKind,
+        light: LightId,
+        region: Option<Region>,
+        object: Option<InstanceId>,
+    }
+
+    /// Every item of every kind, as the engine would hold them, with their signatures.
+    fn items(live: &LiveScene, output: (u32, u32)) -> BTreeMap<(ItemKind, u32, u32, u32), (Item, Signature)> {
+        let mut out = BTreeMap::new();
+        let patches = planar_patches(live.scene(), 1.0);
+        for (li, state) in live.lights().iter().enumerate() {
+            let light = &live.scene().lights[li];
+            for (v, view) in light_frusta(light, &live.fit_bounds(), 256).views.iter().enumerate() {
+                let region = Region::of_view(&view.view_projection, light);
+                let (s, c, _) = view_signatures(live, state.id, &region, view_hash(view, &[]));
+                for (kind, sig) in [(ItemKind::StaticView, s), (ItemKind::CompositeView, c)] {
+                    let item = Item { kind, light: state.id, region: Some(region), object: None };
+                    out.insert((kind, state.id.0, v as u32, 0), (item, sig));
+                }
+            }
+            for (k, p) in patches.iter().enumerate() {
+                let b = Aabb::from_points(p.corners().into_iter().chain(light.position()));
+                let region = Region::of_box(&b, light);
+                let sig = lightmap_signature(live, state.id, &region, k as u64, p.instance);
+                let item = Item {
+                    kind: ItemKind::LightMap,
+                    light: state.id,
+                    region: Some(region),
+                    object: Some(live.instances()[p.instance].id),
+                };
+                out.insert((ItemKind::LightMap, state.id.0, live.instances()[p.instance].id.0, k as u32), (item, sig));
+            }
+            for (o, (inst, s)) in live.scene().instances.iter().zip(live.instances()).enumerate() {
+                if inst.casts_shadows && inst.mobility != Mobility::Temporary {
+                    let item = Item { kind: ItemKind::VolumeObject, light: state.id, region: None, object: Some(s.id) };
+                    out.insert(
+                        (ItemKind::VolumeObject, state.id.0, s.id.0, 0),
+                        (item, volume_signature(live, state.id, 0, o)),
+                    );
+                }
+            }
+            let item = Item { kind: ItemKind::ScreenBuffer, light: state.id, region: None, object: None };
+            let sig = screen_signature(live, state.id, u64::from(output.0) << 32 | u64::from(output.1));
+            out.insert((ItemKind::ScreenBuffer, state.id.0, 0, 0), (item, sig));
+        }
+        out
+    }
+
+    /// The room with the dynamic chair and a dragged copy of a chair, ready for every edit.
+    fn base() -> (LiveScene, InstanceId, InstanceId, InstanceId) {
+        let mut live = LiveScene::new(load_scene("room").unwrap().scene);
+        let static_chair = live.find_instance("chair north-west").unwrap();
+        let dynamic_chair = live.find_instance("chair east").unwrap();
+        let mut dragged = live.instance(live.find_instance("chair south").unwrap()).unwrap().clone();
+        dragged.name = "dragged".into();
+        dragged.mobility = Mobility::Temporary;
+        dragged.transform = Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.3)) * dragged.transform;
+        let temporary = live.apply(Edit::AddInstance(Box::new(dragged))).unwrap().instance.unwrap();
+        (live, static_chair, dynamic_chair, temporary)
+    }
+
+    /// Applies `edit` and checks that exactly the items the table names changed their signature.
+    fn check(name: &str, edit: impl FnOnce(&mut LiveScene, &mut (u32, u32)) -> crate::live::Applied) {
+        let (mut live, ..) = base();
+        let mut output = (160, 120);
+        let before = items(&live, output);
+        let fit = live.fit_bounds();
+        let applied = edit(&mut live, &mut output);
+        assert_eq!(live.fit_bounds(), fit, "{name}: the edit must not refit the lights (a case of its own)");
+        let after = items(&live, output);
+        for (key, (item, sig)) in &before {
+            let changed = after.get(key).is_none_or(|(_, s)| s != sig);
+            let meets = |b: Option<Aabb>| b.is_some_and(|b| item.region.is_some_and(|r| r.meets(&b)));
+            let expected = match rule(applied.kind, item.kind) {
+                Rule::Never | Rule::CameraFitted => false,
+                Rule::Always => true,
+                Rule::SameLight => applied.light == Some(item.light),
+                Rule::Region => meets(applied.bounds_before) || meets(applied.bounds_after),
+                Rule::SameObject => applied.instance.is_some() && applied.instance == item.object,
+            };
+            assert_eq!(
+                changed,
+                expected,
+                "{name} ({:?}): {} of light {:?} (object {:?}): signature {} but the table says {:?}",
+                applied.kind,
+                item.kind.name(),
+                item.light,
+                item.object,
+                if changed { "changed" } else { "held" },
+                rule(applied.kind, item.kind)
+            );
+        }
+    }
+
+    fn nudge(live: &LiveScene, id: InstanceId) -> Affine3A {
+        Affine3A::from_translation(Vec3::new(0.08, 0.0, -0.05)) * live.instance(id).unwrap().transform
+    }
+
+    /// Every edit kind → exactly the items of the table (Toromanoff §3.2 extended), by signature.
+    #[test]
+    fn signatures_change_exactly_as_the_table_says() {
+        let (_, s, d, t) = base();
+        let cup_copy = |m: Mobility| {
+            move |live: &mut LiveScene, _: &mut (u32, u32)| {
+                let mut cup = live.instance(live.find_instance("cup").unwrap()).unwrap().clone();
+                cup.mobility = m;
+                cup.transform = Affine3A::from_translation(Vec3::new(0.2, 0.0, 0.1)) * cup.transform;
+                live.apply(Edit::AddInstance(Box::new(cup))).unwrap()
+            }
+        };
+        for (name, id) in [("static", s), ("dynamic", d), ("temporary", t)] {
+            check(&format!("move the {name} chair"), |live, _| {
+                let to = nudge(live, id);
+                live.apply(Edit::Transform { instance: id, transform: to }).unwrap()
+            });
+            check(&format!("remove the {name} chair"), |live, _| live.apply(Edit::RemoveInstance(id)).unwrap());
+            for to in [Mobility::Static, Mobility::Dynamic, Mobility::Temporary] {
+                check(&format!("the {name} chair becomes {}", to.name()), |live, _| {
+                    live.apply(Edit::Mobility { instance: id, mobility: to }).unwrap()
+                });
+            }
+        }
+        for m in [Mobility::Static, Mobility::Dynamic, Mobility::Temporary] {
+            check(&format!("add a {} cup", m.name()), cup_copy(m));
+        }
+        check("colour", |live, _| {
+            live.apply(Edit::Light { light: LightId(0), change: LightChange::Color(Vec3::new(1.0, 0.0, 0.0)) }).unwrap()
+        });
+        check("intensity", |live, _| {
+            live.apply(Edit::Light { light: LightId(2), change: LightChange::Intensity(0.1) }).unwrap()
+        });
+        check("lamp moved", |live, _| {
+            let p = live.scene().lights[0].position().unwrap();
+            live.apply(Edit::Light { light: LightId(0), change: LightChange::Position(p + Vec3::X * 0.2) }).unwrap()
+        });
+        check("lamp resized", |live, _| {
+            live.apply(Edit::Light { light: LightId(1), change: LightChange::Radius(0.08) }).unwrap()
+        });
+        check("light added", |live, _| {
+            let lamp = Light::new(
+                "new",
+                LightKind::Point { position: Vec3::new(0.5, 2.0, 0.5), radius: 0.05 },
+                Vec3::ONE,
+                1.0,
+            );
+            live.apply(Edit::AddLight(Box::new(lamp))).unwrap()
+        });
+        check("light removed", |live, _| live.apply(Edit::RemoveLight(LightId(1))).unwrap());
+        check("resize", |_, output| {
+            *output = (80, 60);
+            crate::live::Applied {
+                kind: EditKind::Resize,
+                instance: None,
+                light: None,
+                bounds_before: None,
+                bounds_after: None,
+            }
+        });
+    }
+
+    /// Moving a static object past the scene's extent refits every light's whole-scene views (their
+    /// matrices change, so their signatures do): the one case outside the table.
+    #[test]
+    fn growing_the_scene_refits_every_view() {
+        let (mut live, s, ..) = base();
+        let hashes = |live: &LiveScene| -> Vec<u64> {
+            live.scene()
+                .lights
+                .iter()
+                .flat_map(|l| {
+                    light_frusta(l, &live.fit_bounds(), 256).views.iter().map(|v| view_hash(v, &[])).collect::<Vec<_>>()
+                })
+                .collect()
+        };
+        let before = hashes(&live);
+        live.apply(Edit::Transform { instance: s, transform: Affine3A::from_translation(Vec3::new(40.0, 0.0, 0.0)) })
+            .unwrap();
+        let after = hashes(&live);
+        assert_eq!(before.len(), after.len());
+        for (i, (a, b)) in before.iter().zip(&after).enumerate() {
+            assert_ne!(a, b, "view {i} kept its fit");
+        }
+    }
+
+    #[test]
+    fn the_readme_shows_the_table() {
+        let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
+        assert!(
+            readme.contains(&table_markdown()),
+            "README.md's validity table differs from the code's:\n{}",
+            table_markdown()
+        );
+    }
+
+    #[test]
+    fn colour_never_invalidates_shadow_data() {
+        for k in ItemKind::ALL {
+            assert_eq!(rule(EditKind::LightColour, k), Rule::Never, "{}", k.name());
+        }
+    }
 }

@@ -55,6 +55,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     ),
     light_types: &["directional", "spot"],
     create,
+    compose: None,
 };
 
 #[repr(C)]

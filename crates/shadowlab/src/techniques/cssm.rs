@@ -112,6 +112,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     ],
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 struct Cssm {

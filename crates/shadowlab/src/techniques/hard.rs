@@ -23,6 +23,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     params: crate::map_params!(),
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {

@@ -4,6 +4,7 @@ mod blurred;
 mod cascaded;
 mod cssm;
 mod hard;
+mod lightmaps;
 mod map_lookup;
 mod none;
 mod pcf;
@@ -30,4 +31,5 @@ pub(crate) static REGISTRY: &[TechniqueInfo] = &[
     blurred::INFO,
     cssm::INFO,
     smoothies::INFO,
+    lightmaps::INFO,
 ];

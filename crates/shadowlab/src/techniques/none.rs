@@ -15,6 +15,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     params: &[],
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 struct NoShadows {

@@ -19,6 +19,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     params: crate::map_params!(kernel::KERNEL, kernel::TAPS, kernel::RADIUS, kernel::RADIUS_UNIT),
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {

@@ -36,6 +36,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     ),
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 /// `Pcss` in `pcss.wgsl`.

@@ -48,6 +48,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     ],
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 /// The sample pattern parameter, shared with `cssm`.

@@ -37,6 +37,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     params: crate::map_params!(),
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 /// The smoothie buffer's texels: two f32 bit patterns in unsigned integers, because 32-bit float

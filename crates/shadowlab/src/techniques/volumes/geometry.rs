@@ -1,6 +1,6 @@
 //! What shadow volumes need of the scene on the GPU: every mesh's welded topology (faces, edges and
 //! the faces around each edge, from [`shadowlab_core::Topology`]) and the shadow casters. The
-//! topology is shared by every light (a [`Shared::resource`]); casters are listed per frame.
+//! topology is shared by every light (a [`Shared::resource`]); casters are listed per scene change.
 
 use std::sync::Arc;
 
@@ -9,6 +9,7 @@ use glam::{Affine3A, Mat4, Vec3, Vec4};
 use shadowlab_core::{Scene, Topology};
 
 use crate::context::{Shared, storage_entry};
+use crate::live::{InstanceId, LiveScene};
 
 /// One mesh's place in the shared topology buffers.
 #[derive(Debug, Clone, Copy)]
@@ -17,6 +18,11 @@ pub(super) struct MeshRanges {
     pub faces: u32,
     pub first_edge: u32,
     pub edges: u32,
+    /// The most side quads the mesh can extrude for one light position, one-sided and two-sided:
+    /// over its edges, the largest |net| of the signs around each (one-sided faces sign 0 or 1, so
+    /// at most the larger of the edge's forward and backward uses; two-sided ones ±1, so at most
+    /// its uses). A closed one-sided mesh extrudes at most one quad per edge.
+    pub quads: [u32; 2],
 }
 
 /// The welded topology of every mesh of the scene, on the GPU and on the CPU (the CPU copy counts
@@ -65,11 +71,19 @@ impl VolumeTopology {
         for mesh in &scene.meshes {
             let topo = Topology::build(mesh);
             let base = positions.len() as u32;
+            let mut quads = [0u32; 2];
+            for e in 0..topo.edges.len() {
+                let list = topo.edge_uses(e);
+                let forward = list.iter().filter(|u| u.forward).count() as u32;
+                quads[0] += forward.max(list.len() as u32 - forward);
+                quads[1] += list.len() as u32;
+            }
             meshes.push(MeshRanges {
                 first_face: triangles.len() as u32,
                 faces: topo.triangles.len() as u32,
                 first_edge: edges.len() as u32,
                 edges: topo.edges.len() as u32,
+                quads,
             });
             positions.extend(topo.positions.iter().map(|p| p.extend(1.0)));
             triangles.extend(
@@ -110,6 +124,9 @@ impl VolumeTopology {
 /// A shadow caster: an instance with `casts_shadows`.
 #[derive(Debug, Clone)]
 pub(super) struct Caster {
+    /// The instance's stable id and transform version (what its cached volumes record).
+    pub id: InstanceId,
+    pub version: u64,
     pub mesh: usize,
     pub transform: Affine3A,
     /// Open meshes and double-sided materials occlude with both faces.
@@ -123,13 +140,15 @@ pub(super) struct Caster {
 
 impl Caster {
     /// Every permanent caster (temporary, dragged objects have a pass of their own).
-    pub fn all(scene: &Scene, topology: &VolumeTopology) -> Vec<Caster> {
+    pub fn all(live: &LiveScene, topology: &VolumeTopology) -> Vec<Caster> {
+        let scene = live.scene();
         scene
             .instances
             .iter()
-            .filter(|i| i.casts_shadows && i.mobility != shadowlab_core::Mobility::Temporary)
-            .filter(|i| topology.meshes[i.mesh.index()].faces > 0)
-            .map(|i| {
+            .zip(live.instances())
+            .filter(|(i, _)| i.casts_shadows && i.mobility != shadowlab_core::Mobility::Temporary)
+            .filter(|(i, _)| topology.meshes[i.mesh.index()].faces > 0)
+            .map(|(i, state)| {
                 let mesh = scene.mesh(i.mesh);
                 let closed = topology.topologies[i.mesh.index()].report().is_closed();
                 let corners = shadowlab_core::Aabb::from_points(mesh.positions.iter().copied())
@@ -139,6 +158,8 @@ impl Caster {
                 let centre = bounds.center();
                 let radius = corners.iter().map(|c| c.distance(centre)).fold(0.0, f32::max) * 1.0001 + 1e-6;
                 Caster {
+                    id: state.id,
+                    version: state.version,
                     mesh: i.mesh.index(),
                     transform: i.transform,
                     two_sided: !closed || scene.material(i.material).double_sided,
@@ -150,42 +171,37 @@ impl Caster {
             })
             .collect()
     }
+
+    /// `CASTER_*` flags of `extract.wgsl`.
+    pub fn flags(&self) -> u32 {
+        let mut flags = 0;
+        if self.two_sided {
+            flags |= CASTER_TWO_SIDED;
+        }
+        if self.mirrored {
+            flags |= CASTER_MIRRORED;
+        }
+        flags
+    }
 }
 
 pub(super) const CASTER_TWO_SIDED: u32 = 1;
 pub(super) const CASTER_MIRRORED: u32 = 2;
-pub(super) const CASTER_ZP_PLUS: u32 = 4;
 
-/// `struct Caster` of `common.wgsl`.
+/// `struct Job` of `extract.wgsl`: one (light sample, caster) extraction into the caster's region.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub(super) struct CasterRecord {
+pub(super) struct Job {
     pub model: Mat4,
+    /// The light sample: position (w = 1) or direction of travel (w = 0).
+    pub light: Vec4,
+    /// First face, faces, first edge, edges in the shared topology buffers.
     pub ranges: [u32; 4],
-    pub work: [u32; 2],
-    pub flags: u32,
-    pub pad: u32,
-}
-
-impl CasterRecord {
-    /// `first_face` and `first_edge` number this caster's work items within its pass.
-    pub fn new(c: &Caster, ranges: &MeshRanges, first_face: u32, first_edge: u32, zp_plus: bool) -> Self {
-        let mut flags = 0;
-        if c.two_sided {
-            flags |= CASTER_TWO_SIDED;
-        }
-        if c.mirrored {
-            flags |= CASTER_MIRRORED;
-        }
-        if zp_plus {
-            flags |= CASTER_ZP_PLUS;
-        }
-        Self {
-            model: Mat4::from(c.transform),
-            ranges: [ranges.first_face, ranges.faces, ranges.first_edge, ranges.edges],
-            work: [first_face, first_edge],
-            flags,
-            pad: 0,
-        }
-    }
+    /// This job's first face and edge work items within its batch, its item (the index of its
+    /// counters and draws), its `CASTER_*` flags.
+    pub work: [u32; 4],
+    /// First vertex of its sides, light caps and dark caps (in the whole vertex buffer).
+    pub base: [u32; 4],
+    /// Vertices each of those regions holds.
+    pub capacity: [u32; 4],
 }

@@ -2,28 +2,36 @@
 //! resolution to choose and no bias to tune, robust in every camera position.
 //!
 //! Per light (and per emitter sample, for area lights):
-//! 1. **Extraction** (`extract.wgsl`, compute): every caster face decides whether it occludes, every
-//!    edge sums the signs of the faces around it and emits |net| side quads extruded to infinity
-//!    (w = 0); z-fail and ZP+ also get caps. Silhouettes by counting make open and non-manifold
-//!    meshes work (NOTES-001 §1.4, Hasselgren 2003 §2.3); the CPU reference is
-//!    [`shadowlab_core::volumes`].
+//! 1. **Extraction** (`extract.wgsl`, compute, in `prepare`): per (sample, caster), every face
+//!    decides whether it occludes and emits its light and dark caps, every edge sums the signs of
+//!    the faces around it and emits |net| side quads extruded to infinity (w = 0), into the caster's
+//!    own regions of a persistent store with their own indirect draws (`store.rs`). Extraction is
+//!    camera-independent and kept while neither the light nor the caster changed (Toromanoff
+//!    2005 §3.2; the live cache's `VolumeObject` items): a still frame extracts nothing, a moved
+//!    object only its own volumes. Silhouettes by counting make open and non-manifold meshes work
+//!    (NOTES-001 §1.4, Hasselgren 2003 §2.3); the CPU reference is [`shadowlab_core::volumes`].
 //! 2. **Stencil** (`stencil.wgsl`): the surface's depth is copied into a technique-owned
 //!    depth-stencil target (in an infinite reversed depth mapping, so volumes at infinity fit),
-//!    then the volumes are counted with two-sided stencil: z-pass, z-fail, or ZP+ (Hornus et al.
-//!    2005 as Toromanoff 2005 alg. 10 uses it: the stencil starts at the light's count of the
-//!    near-capped volumes through the near plane). `auto` takes z-pass when Toromanoff's skip test
-//!    proves the near plane outside every volume, ZP+ otherwise, and z-fail when the light lies in
-//!    the near plane, where the ZP+ frustum is flat (its known failure).
+//!    then the volumes of the casters the plan keeps are counted with two-sided stencil: z-pass,
+//!    z-fail, or ZP+ (Hornus et al. 2005 as Toromanoff 2005 alg. 10 uses it: the stencil starts at
+//!    the light's count of the near-capped volumes through the near plane). `auto` takes z-pass
+//!    when Toromanoff's skip test proves the near plane outside every volume, ZP+ otherwise, and
+//!    z-fail when the light lies in the near plane, where the ZP+ frustum is flat (its known
+//!    failure). The method only selects regions: sides, plus both caps (z-fail) or the listed
+//!    casters' light caps (ZP+).
 //! 3. **Resolve** (`resolve.wgsl`): positive count → shadow (Haines 1994), or odd count with the
 //!    invert stencil (Kilgard 2001). Area lights: N samples, averaged like `sampled`.
 //!
 //! Optimisations of Hasselgren 2003 §3.3: the light's scissor rectangle from its range, culling of
-//! casters and of volume polygons against the frustum through it, and the robust depth pass with the
-//! invert stencil (`stencil=invert` with z-pass: depth clamping instead of near clipping, the stencil
-//! started at the eye's parity; exact where volumes do not overlap).
+//! casters against the frustum through it (per object, at draw time: the rasteriser's clipping
+//! drops the polygons outside, which extraction can no longer cull since it is shared by every
+//! camera), and the robust depth pass with the invert stencil (`stencil=invert` with z-pass: depth
+//! clamping instead of near clipping, the stencil started at the eye's parity; exact where volumes
+//! do not overlap).
 
 mod geometry;
 mod plan;
+mod store;
 
 use std::sync::Arc;
 
@@ -34,8 +42,9 @@ use shadowlab_core::sampling::{EmitterPoint, EmitterSample, emitter_points};
 use shadowlab_core::volumes::{LightSource, VolumeCamera};
 use shadowlab_core::{Light, ParamSet, Role};
 
-use self::geometry::{Caster, CasterRecord, VolumeTopology};
+use self::geometry::{Caster, VolumeTopology};
 use self::plan::{FrameView, Method, Mode, SamplePlan, Settings};
+use self::store::{DARK_CAPS, LIGHT_CAPS, SIDES, Store, runs};
 use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
@@ -77,6 +86,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     ),
     light_types: super::ALL_LIGHTS,
     create,
+    compose: None,
 };
 
 /// `struct VolumePass` of `common.wgsl`.
@@ -86,12 +96,6 @@ struct PassUniform {
     volume_matrix: Mat4,
     zp_matrix: Mat4,
     zp_origin: Vec4,
-    light: Vec4,
-    planes: [Vec4; 5],
-    counts: [u32; 4],
-    options: [u32; 4],
-    capacity: [u32; 4],
-    base: [u32; 4],
 }
 
 /// `struct VolumeSample` of `resolve.wgsl`.
@@ -103,26 +107,25 @@ struct SampleUniform {
     index: [u32; 4],
 }
 
-const CAPS_NONE: u32 = 0;
-const CAPS_ZP_PLUS: u32 = 1;
-const CAPS_ZFAIL: u32 = 2;
-/// Byte offset of the indirect draw of region `r` in the counters buffer.
-fn draw_offset(r: u64) -> u64 {
-    16 + 16 * r
-}
-const SIDES: u64 = 0;
-const LIGHT_CAPS: u64 = 1;
-const DARK_CAPS: u64 = 2;
-
 struct Volumes {
     params: ParamSet,
     settings: Settings,
     crop: bool,
     samples: Vec<EmitterPoint>,
-    state: Option<State>,
     /// The light's emitter version the samples were taken from.
     emitter_version: u64,
-    /// The last frame's plans (methods, for the stats).
+    topology: Option<Arc<VolumeTopology>>,
+    /// The permanent casters, taken at scene epoch `caster_epoch`.
+    casters: Vec<Caster>,
+    caster_epoch: Option<u64>,
+    /// Bounds of the casters' bounding spheres (the depth range of the ZP+ projection for the sun).
+    caster_bounds: shadowlab_core::Aabb,
+    /// Every caster's volumes for every sample (camera-independent, cached).
+    store: Option<Store>,
+    /// Screen-sized buffers and per-sample uniforms.
+    state: Option<State>,
+    receivers: Option<Receivers>,
+    /// The last frame's plans (methods, drawn casters, for the draws and the stats).
     plans: Vec<SamplePlan>,
     frames: u64,
     stats: VolumeStats,
@@ -134,40 +137,28 @@ struct VolumeStats {
     fill: Option<u64>,
     /// Volume triangles drawn in the first frame, over all samples.
     triangles: Option<u64>,
-    /// Vertices refused for lack of room in the first frame (should be 0).
+    /// Vertices refused for lack of room in the first frame's drawn volumes (should be 0).
     overflow: u64,
     draws: u32,
 }
 
-/// Built on the first frame, when the surface size is known.
+/// The screen-sized buffers and per-sample uniforms, made for one output size and sample count.
 struct State {
-    topology: Arc<VolumeTopology>,
-    casters: Vec<Caster>,
-    /// The scene epoch the casters and receivers were taken at.
-    epoch: u64,
-    /// What the buffers were sized for: more casters or faces need a new state.
-    max_casters: usize,
-    max_faces: u64,
-    caster_bounds: shadowlab_core::Aabb,
     size: (u32, u32),
+    samples: usize,
     depth_stencil_view: wgpu::TextureView,
     mask_view: wgpu::TextureView,
-    caster_buffer: wgpu::Buffer,
-    vertices: wgpu::Buffer,
-    counters: wgpu::Buffer,
     pass_buffer: wgpu::Buffer,
     pass_stride: u64,
     sample_buffer: wgpu::Buffer,
     sample_stride: u64,
     accum: wgpu::Buffer,
     fill: wgpu::Buffer,
-    readback: wgpu::Buffer,
+    fill_group: wgpu::BindGroup,
+    /// The fill counter and the store's draws and counters of the first frame, for the stats.
+    readback: Option<wgpu::Buffer>,
     /// Whether the readback holds a frame not yet read.
     readback_pending: bool,
-    extract_group: wgpu::BindGroup,
-    fill_group: wgpu::BindGroup,
-    capacity: [u32; 3],
-    receivers: Option<Receivers>,
     bytes: u64,
 }
 
@@ -241,8 +232,14 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         settings,
         crop: params.bool("crop"),
         samples,
-        state: None,
         emitter_version: 0,
+        topology: None,
+        casters: Vec::new(),
+        caster_epoch: None,
+        caster_bounds: shadowlab_core::Aabb::EMPTY,
+        store: None,
+        state: None,
+        receivers: None,
         plans: Vec::new(),
         frames: 0,
         stats: VolumeStats::default(),
@@ -268,22 +265,6 @@ fn dynamic_uniform(binding: u32, visibility: wgpu::ShaderStages, size: u64) -> w
         },
         count: None,
     }
-}
-
-fn extract_layout(shared: &Shared) -> wgpu::BindGroupLayout {
-    shared.layout("volumes extract", || {
-        let c = wgpu::ShaderStages::COMPUTE;
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("volumes extract"),
-            entries: &[
-                storage_entry(0, c, true),
-                storage_entry(1, c, false),
-                storage_entry(2, c, false),
-                storage_entry(3, c, false),
-                dynamic_uniform(4, c, std::mem::size_of::<PassUniform>() as u64),
-            ],
-        })
-    })
 }
 
 fn stencil_layout(shared: &Shared) -> wgpu::BindGroupLayout {
@@ -337,26 +318,6 @@ fn sample_layout(shared: &Shared) -> wgpu::BindGroupLayout {
                 storage_entry(1, c, false),
                 dynamic_uniform(2, c, std::mem::size_of::<SampleUniform>() as u64),
             ],
-        })
-    })
-}
-
-fn extract_pipeline(shared: &Shared, entry: &str) -> wgpu::ComputePipeline {
-    shared.compute_pipeline(&format!("volumes extract {entry}"), || {
-        let device = &shared.gpu.device;
-        let module = crate::shader::module(device, "volumes extract", include_str!("extract.wgsl"));
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("volumes extract"),
-            bind_group_layouts: &[Some(&geometry::topology_layout(shared)), Some(&extract_layout(shared))],
-            immediate_size: 0,
-        });
-        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("volumes extract"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
         })
     })
 }
@@ -705,73 +666,29 @@ fn stride(device: &wgpu::Device, size: usize) -> u64 {
 }
 
 impl Volumes {
-    fn build(&self, ctx: &FrameContext<'_>) -> State {
+    /// The screen-sized buffers and per-sample uniforms.
+    fn build_state(&self, ctx: &FrameContext<'_>) -> State {
         let shared = ctx.shared;
         let device = &shared.gpu.device;
-        let topology = VolumeTopology::shared(shared, ctx.scene);
-        let casters = Caster::all(ctx.scene, &topology);
-        let faces: u64 = casters.iter().map(|c| u64::from(topology.meshes[c.mesh].faces)).sum();
         let n = self.samples.len() as u64;
         let (w, h) = (ctx.surface.width, ctx.surface.height);
-        let format = depth_stencil_format(shared);
-        let depth_stencil = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("volumes depth-stencil"),
-            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
-        let depth_stencil_view = depth_stencil.create_view(&Default::default());
-        let mask_view = device
-            .create_texture(&wgpu::TextureDescriptor {
-                label: Some("volumes shadow mask"),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: MASK_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            })
-            .create_view(&Default::default());
-        // Worst case per sample: every face use of every edge a side quad (6 vertices per use, 3
-        // uses per face), and a light and a dark cap per face; clamped to what one binding holds.
-        let limit = device.limits().max_storage_buffer_binding_size.min(device.limits().max_buffer_size) / 16;
-        let want = [18 * faces, 3 * faces, 3 * faces].map(|v| v.max(3));
-        let total: u64 = want.iter().sum();
-        let scale = if total > limit { limit as f64 / total as f64 } else { 1.0 };
-        let capacity = want.map(|v| ((v as f64 * scale) as u64 / 3 * 3).min(u64::from(u32::MAX / 2)) as u32);
-        let vertex_bytes = 16 * capacity.iter().map(|&c| u64::from(c)).sum::<u64>();
-        let vertices = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("volume vertices"),
-            size: vertex_bytes.max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX,
-            mapped_at_creation: false,
-        });
-        let counters = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("volume counters"),
-            size: 64,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::INDIRECT
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let caster_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("volume casters"),
-            size: (std::mem::size_of::<CasterRecord>() as u64 * casters.len() as u64 * n).max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let signs = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("volume face signs"),
-            size: (4 * faces).max(16),
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
+        let texture = |label, format, usage| {
+            device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        };
+        let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let depth_stencil_view = texture("volumes depth-stencil", depth_stencil_format(shared), attachment);
+        let mask_view = texture("volumes shadow mask", MASK_FORMAT, attachment);
         let pass_stride = stride(device, std::mem::size_of::<PassUniform>());
         let pass_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("volume passes"),
@@ -799,98 +716,78 @@ impl Volumes {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("volume stats readback"),
-            size: 16 + 16 * n,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let extract_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("volumes extract"),
-            layout: &extract_layout(shared),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: caster_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: signs.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: vertices.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: counters.as_entire_binding() },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &pass_buffer,
-                        offset: 0,
-                        size: std::num::NonZeroU64::new(std::mem::size_of::<PassUniform>() as u64),
-                    }),
-                },
-            ],
-        });
         let fill_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("volumes fill"),
             layout: &fill_layout(shared),
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: fill.as_entire_binding() }],
         });
         let bytes = u64::from(w) * u64::from(h) * 6
-            + [&caster_buffer, &vertices, &counters, &signs, &pass_buffer, &sample_buffer, &accum, &fill, &readback]
-                .iter()
-                .map(|b| b.size())
-                .sum::<u64>();
-        let receivers = self.crop.then(|| Receivers::new(ctx, &self.params));
-        let bytes = bytes + receivers.as_ref().map_or(0, |r| r.instances.size() + r.map.bytes());
-        let caster_bounds = caster_bounds(&casters);
+            + [&pass_buffer, &sample_buffer, &accum, &fill].iter().map(|b| b.size()).sum::<u64>();
         State {
-            topology,
-            max_casters: casters.len(),
-            max_faces: faces,
-            casters,
-            epoch: ctx.live.epoch(),
-            caster_bounds,
             size: (w, h),
+            samples: self.samples.len(),
             depth_stencil_view,
             mask_view,
-            caster_buffer,
-            vertices,
-            counters,
             pass_buffer,
             pass_stride,
             sample_buffer,
             sample_stride,
             accum,
             fill,
-            readback,
-            readback_pending: false,
-            extract_group,
             fill_group,
-            capacity,
-            receivers,
+            readback: None,
+            readback_pending: false,
             bytes,
         }
     }
 
-    /// Reads the statistics the first frame left in the readback buffer (blocking, once).
+    /// Reads the statistics the first frame left in the readback buffer (blocking, once): the fill,
+    /// and the triangles of the regions each plan drew.
     fn read_stats(&mut self, device: &wgpu::Device) {
-        let Some(state) = &mut self.state else { return };
+        let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
         if !state.readback_pending {
             return;
         }
         state.readback_pending = false;
-        let Ok(data) = crate::util::map_read(device, &state.readback) else { return };
+        let Some(readback) = &state.readback else { return };
+        let Ok(data) = crate::util::map_read(device, readback) else { return };
         let words: Vec<u32> = data.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         self.stats.fill = Some(u64::from(words[0]));
-        let mut triangles = 0;
-        let mut overflow = 0;
+        // The store's draws and counters follow the fill counter.
+        let counters = &words[4..];
+        let (mut triangles, mut overflow) = (0u64, 0u64);
         for (i, plan) in self.plans.iter().enumerate() {
-            let c = &words[4 + 4 * i..8 + 4 * i];
-            // Counters hold vertices; sides are drawn, caps as the method needs them.
-            let drawn = match plan.method {
-                Method::Skip => 0,
-                Method::ZPass => c[0],
-                Method::ZFail => c[0] + c[1] + c[2],
-                Method::ZpPlus(_) => c[0] + c[1],
-            };
-            triangles += u64::from(drawn / 3);
-            overflow += u64::from(c[3]);
+            for d in &plan.casters {
+                let item = store.item(i as u32, d.slot);
+                let vertices = |region: u64| u64::from(counters[(store.draw_offset(region, item) / 4) as usize]);
+                let drawn = match plan.method {
+                    Method::Skip => 0,
+                    Method::ZPass => vertices(SIDES),
+                    Method::ZFail => vertices(SIDES) + vertices(LIGHT_CAPS) + vertices(DARK_CAPS),
+                    Method::ZpPlus(_) => vertices(SIDES) + if d.zp_listed { vertices(LIGHT_CAPS) } else { 0 },
+                };
+                triangles += drawn / 3;
+                overflow += u64::from(counters[store.count_word(item, 3)]);
+            }
         }
         self.stats.triangles = Some(triangles);
         self.stats.overflow = overflow;
+    }
+}
+
+/// The stencil draws of a method: (vertex entry, counting, region, only the casters ZP+ lists).
+fn method_draws(method: &Method) -> &'static [(&'static str, Counting, u64, bool)] {
+    match method {
+        Method::ZPass => &[("side_vs", Counting::Pass, SIDES, false)],
+        Method::ZFail => &[
+            ("side_vs", Counting::Fail, SIDES, false),
+            ("side_vs", Counting::Fail, DARK_CAPS, false),
+            ("cap_vs", Counting::Fail, LIGHT_CAPS, false),
+        ],
+        Method::ZpPlus(_) => {
+            &[("zp_vs", Counting::Always, LIGHT_CAPS, true), ("side_vs", Counting::Pass, SIDES, false)]
+        }
+        Method::Skip => &[],
     }
 }
 
@@ -908,45 +805,62 @@ impl ShadowTechnique for Volumes {
         let size = (ctx.surface.width, ctx.surface.height);
         let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
         if emitter != self.emitter_version {
-            // The light moved or changed size: new samples (and new buffers when their count changed).
+            // The light moved or changed size: new samples (and new buffers when their count
+            // changed). The store's items record the emitter version: they re-extract.
             let samples = volume_samples(&self.params, ctx.light);
-            if samples.len() != self.samples.len() {
-                self.state = None;
-            } else if let Some(state) = &self.state {
+            if let Some(state) = &self.state
+                && state.samples == samples.len()
+            {
                 write_samples(&ctx.gpu.queue, &state.sample_buffer, state.sample_stride, &samples);
             }
             self.samples = samples;
             self.emitter_version = emitter;
         }
-        if let Some(state) = self.state.as_mut()
-            && state.size == size
-            && state.epoch != ctx.live.epoch()
-        {
+        let topology = self.topology.get_or_insert_with(|| VolumeTopology::shared(ctx.shared, ctx.scene)).clone();
+        if self.caster_epoch != Some(ctx.live.epoch()) {
             // The scene changed: take its casters and receivers as they are now, in the same buffers
-            // when they fit.
-            let casters = Caster::all(ctx.scene, &state.topology);
-            let faces: u64 = casters.iter().map(|c| u64::from(state.topology.meshes[c.mesh].faces)).sum();
-            let receivers_fit = state.receivers.as_mut().is_none_or(|r| r.refresh(ctx));
-            if casters.len() <= state.max_casters && faces <= state.max_faces && receivers_fit {
-                state.caster_bounds = caster_bounds(&casters);
-                state.casters = casters;
-                state.epoch = ctx.live.epoch();
-            } else {
-                if let Some(r) = &state.receivers
-                    && let Some(maps) = &r.map.maps
-                {
+            // when they fit (each caster keeps its slot, and its volumes while it stands still).
+            self.casters = Caster::all(ctx.live, &topology);
+            self.caster_bounds = caster_bounds(&self.casters);
+            self.caster_epoch = Some(ctx.live.epoch());
+            if let Some(store) = &mut self.store
+                && !store.place(ctx, &topology, &self.casters)
+            {
+                store.forget_all(ctx);
+                self.store = None;
+            }
+            if let Some(r) = &mut self.receivers
+                && !r.refresh(ctx)
+            {
+                if let Some(maps) = &r.map.maps {
                     maps.forget_items(ctx);
                 }
-                self.state = None;
+                self.receivers = None;
             }
         }
-        if self.state.as_ref().is_none_or(|s| s.size != size) {
-            self.state = Some(self.build(ctx));
+        let sources: Vec<LightSource> = self.samples.iter().map(|s| LightSource::of_sample(s.sample)).collect();
+        let point = matches!(sources.first(), Some(LightSource::Point(_)));
+        if let Some(store) = &self.store
+            && !store.fits_samples(sources.len() as u32, point)
+        {
+            store.forget_all(ctx);
+            self.store = None;
         }
-        if let Some(r) = self.state.as_mut().and_then(|s| s.receivers.as_mut()) {
+        let store = match &mut self.store {
+            Some(store) => store,
+            None => self.store.insert(Store::new(ctx, &topology, &self.casters, sources.len() as u32, point)),
+        };
+        store.extract(ctx, &topology, &self.casters, &sources)?;
+        if self.state.as_ref().is_none_or(|s| s.size != size || s.samples != self.samples.len()) {
+            self.state = Some(self.build_state(ctx));
+        }
+        if self.crop && self.receivers.is_none() {
+            self.receivers = Some(Receivers::new(ctx, &self.params));
+        }
+        if let Some(r) = &mut self.receivers {
             r.map.update(ctx)?;
         }
-        let Some(state) = &self.state else { return Ok(()) };
+        let (Some(state), Some(store)) = (&self.state, &self.store) else { return Ok(()) };
         let cam = &ctx.surface.camera;
         let camera = VolumeCamera {
             view_proj: cam.view_proj,
@@ -958,52 +872,28 @@ impl ShadowTechnique for Volumes {
             width: size.0,
             height: size.1,
             range: ctx.light.range,
-            casters: &state.casters,
-            topology: &state.topology,
-            bounds: &state.caster_bounds,
+            casters: &self.casters,
+            slots: &store.slot_of,
+            topology: &topology,
+            bounds: &self.caster_bounds,
         };
-        let queue = &ctx.gpu.queue;
         let volume_matrix = camera.volume_matrix();
         self.plans.clear();
-        for (i, sample) in self.samples.iter().enumerate() {
-            let plan = plan::plan(&self.settings, &frame, LightSource::of_sample(sample.sample));
-            let first = i * state.casters.len();
-            if !plan.records.is_empty() {
-                queue.write_buffer(
-                    &state.caster_buffer,
-                    (first * std::mem::size_of::<CasterRecord>()) as u64,
-                    bytemuck::cast_slice(&plan.records),
-                );
-            }
+        for (i, &source) in sources.iter().enumerate() {
+            let plan = plan::plan(&self.settings, &frame, source);
             let (zp_matrix, zp_origin) = match plan.method {
                 Method::ZpPlus(zp) => (zp.matrix, zp.origin.extend(1.0)),
                 _ => (Mat4::IDENTITY, Vec4::ZERO),
             };
-            let caps = match plan.method {
-                Method::ZFail => CAPS_ZFAIL,
-                Method::ZpPlus(_) => CAPS_ZP_PLUS,
-                Method::Skip | Method::ZPass => CAPS_NONE,
-            };
-            let c = state.capacity;
-            let uniform = PassUniform {
-                volume_matrix,
-                zp_matrix,
-                zp_origin,
-                light: plan.source.to_vec4(),
-                planes: plan.planes,
-                counts: [plan.records.len() as u32, first as u32, plan.faces, plan.edges],
-                options: [caps, u32::from(self.settings.cull), 0, 0],
-                capacity: [c[0], c[1], c[2], 0],
-                base: [0, c[0], c[0] + c[1], 0],
-            };
-            queue.write_buffer(&state.pass_buffer, i as u64 * state.pass_stride, bytemuck::bytes_of(&uniform));
+            let uniform = PassUniform { volume_matrix, zp_matrix, zp_origin };
+            ctx.gpu.queue.write_buffer(&state.pass_buffer, i as u64 * state.pass_stride, bytemuck::bytes_of(&uniform));
             self.plans.push(plan);
         }
         Ok(())
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        let Some(state) = &mut self.state else { return };
+        let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
         let shared = ctx.shared;
         let device = &ctx.gpu.device;
         let measure = self.frames == 0;
@@ -1044,34 +934,12 @@ impl ShadowTechnique for Volumes {
         });
         let group0 = shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
         let single = self.samples.len() == 1;
-        let (faces_pipeline, sides_pipeline, finish_pipeline) =
-            (extract_pipeline(shared, "faces"), extract_pipeline(shared, "sides"), extract_pipeline(shared, "finish"));
         if measure {
             ctx.encoder.clear_buffer(&state.fill, 0, None);
         }
         let mut draws = 0;
         for (i, plan) in self.plans.iter().enumerate() {
             let pass_offset = (i as u64 * state.pass_stride) as u32;
-            ctx.encoder.clear_buffer(&state.counters, 0, None);
-            if plan.method != Method::Skip {
-                let timestamps = ctx.timer.compute_pass(device, PassKind::Shadow);
-                let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("volume extraction"),
-                    timestamp_writes: timestamps,
-                });
-                pass.set_bind_group(0, Some(&state.topology.group), &[]);
-                pass.set_bind_group(1, Some(&state.extract_group), &[pass_offset]);
-                for (pipeline, items) in [(&faces_pipeline, plan.faces), (&sides_pipeline, plan.edges)] {
-                    let groups = crate::util::groups(items, 64);
-                    if groups > 0 {
-                        pass.set_pipeline(pipeline);
-                        let x = groups.min(65535);
-                        pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
-                    }
-                }
-                pass.set_pipeline(&finish_pipeline);
-                pass.dispatch_workgroups(1, 1, 1);
-            }
             {
                 let timestamps = ctx.timer.render_pass(device, PassKind::Shadow);
                 let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -1098,7 +966,7 @@ impl ShadowTechnique for Volumes {
                     pass.draw(0..3, 0..1);
                     draws += 1;
                 }
-                if let Some(r) = &state.receivers {
+                if let Some(r) = &self.receivers {
                     pass.set_pipeline(&receiver_pipeline(shared));
                     pass.set_stencil_reference(0x80);
                     pass.set_vertex_buffer(0, ctx.gpu_scene.vertices.slice(..));
@@ -1114,26 +982,23 @@ impl ShadowTechnique for Volumes {
                     if let Some([x, y, w, h]) = plan.scissor {
                         pass.set_scissor_rect(x, y, w, h);
                     }
-                    pass.set_vertex_buffer(0, state.vertices.slice(..));
-                    // (vertex entry, counting, region) of each draw.
-                    let list: &[(&str, Counting, u64)] = match plan.method {
-                        Method::ZPass => &[("side_vs", Counting::Pass, SIDES)],
-                        Method::ZFail => &[
-                            ("side_vs", Counting::Fail, SIDES),
-                            ("side_vs", Counting::Fail, DARK_CAPS),
-                            ("cap_vs", Counting::Fail, LIGHT_CAPS),
-                        ],
-                        Method::ZpPlus(_) => {
-                            &[("zp_vs", Counting::Always, LIGHT_CAPS), ("side_vs", Counting::Pass, SIDES)]
-                        }
-                        Method::Skip => &[],
-                    };
+                    pass.set_vertex_buffer(0, store.vertices().slice(..));
+                    // The drawn casters' regions, as runs of consecutive slots: one multi-draw each.
+                    let all = runs(plan.casters.iter().map(|d| d.slot));
+                    let listed = runs(plan.casters.iter().filter(|d| d.zp_listed).map(|d| d.slot));
+                    let list = method_draws(&plan.method);
                     let clamp_for = |counting: Counting| match counting {
                         Counting::Pass => plan.robust,
                         Counting::Fail => clamp,
                         _ => false,
                     };
-                    for &(vertex, counting, region) in list {
+                    let base = store.item(i as u32, 0);
+                    let record = |pass: &mut wgpu::RenderPass<'_>, region: u64, only_listed: bool| {
+                        for &(first, count) in if only_listed { &listed } else { &all } {
+                            pass.multi_draw_indirect(&store.counters, store.draw_offset(region, base + first), count);
+                        }
+                    };
+                    for &(vertex, counting, region, only_listed) in list {
                         pass.set_pipeline(&volume_pipeline(
                             shared,
                             vertex,
@@ -1142,12 +1007,12 @@ impl ShadowTechnique for Volumes {
                             clamp_for(counting),
                             crop,
                         ));
-                        pass.draw_indirect(&state.counters, draw_offset(region));
-                        draws += 1;
+                        record(&mut pass, region, only_listed);
+                        draws += if only_listed { listed.len() } else { all.len() } as u32;
                     }
                     if measure {
                         pass.set_bind_group(1, Some(&state.fill_group), &[]);
-                        for &(vertex, counting, region) in list {
+                        for &(vertex, counting, region, only_listed) in list {
                             pass.set_pipeline(&volume_pipeline(
                                 shared,
                                 vertex,
@@ -1156,7 +1021,7 @@ impl ShadowTechnique for Volumes {
                                 clamp_for(counting),
                                 crop,
                             ));
-                            pass.draw_indirect(&state.counters, draw_offset(region));
+                            record(&mut pass, region, only_listed);
                         }
                     }
                 }
@@ -1190,9 +1055,6 @@ impl ShadowTechnique for Volumes {
                     pass.draw(0..3, 0..1);
                 }
             }
-            if measure {
-                ctx.encoder.copy_buffer_to_buffer(&state.counters, 0, &state.readback, 16 + 16 * i as u64, 16);
-            }
             let entry = if single { "single" } else { "accumulate" };
             let timestamps = ctx.timer.compute_pass(device, PassKind::Visibility);
             let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -1202,7 +1064,7 @@ impl ShadowTechnique for Volumes {
             pass.set_pipeline(&resolve_pipeline(shared, entry, crop));
             pass.set_bind_group(0, Some(&group0), &[]);
             let offset = (i as u64 * state.sample_stride) as u32;
-            match &state.receivers {
+            match &self.receivers {
                 Some(r) => {
                     pass.set_bind_group(1, r.map.group(), &[]);
                     pass.set_bind_group(2, Some(&sample_group), &[offset]);
@@ -1223,7 +1085,7 @@ impl ShadowTechnique for Volumes {
             });
             pass.set_pipeline(&resolve_pipeline(shared, "finish", crop));
             pass.set_bind_group(0, Some(&group0), &[]);
-            match &state.receivers {
+            match &self.receivers {
                 Some(r) => {
                     pass.set_bind_group(1, r.map.group(), &[]);
                     pass.set_bind_group(2, Some(&sample_group), &[0]);
@@ -1237,7 +1099,16 @@ impl ShadowTechnique for Volumes {
             );
         }
         if measure {
-            ctx.encoder.copy_buffer_to_buffer(&state.fill, 0, &state.readback, 0, 16);
+            // The fill counter, then the store's draws and counters: the triangles each plan drew.
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("volume stats readback"),
+                size: 16 + store.counters.size(),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            ctx.encoder.copy_buffer_to_buffer(&state.fill, 0, &readback, 0, 16);
+            ctx.encoder.copy_buffer_to_buffer(&store.counters, 0, &readback, 16, store.counters.size());
+            state.readback = Some(readback);
             state.readback_pending = true;
         }
         self.stats.draws = draws;
@@ -1269,7 +1140,7 @@ impl ShadowTechnique for Volumes {
         ));
         extra.push((
             "casters".into(),
-            self.plans.iter().map(|p| p.records.len()).sum::<usize>() as f64 / f64::from(n.max(1)),
+            self.plans.iter().map(|p| p.casters.len()).sum::<usize>() as f64 / f64::from(n.max(1)),
         ));
         if let Some(fill) = self.stats.fill {
             extra.push(("fill_fragments".into(), fill as f64));
@@ -1277,8 +1148,11 @@ impl ShadowTechnique for Volumes {
         if self.stats.overflow > 0 {
             extra.push(("overflow_vertices".into(), self.stats.overflow as f64));
         }
+        let topology = self.topology.as_ref().map_or(0, |t| t.bytes);
+        let store = self.store.as_ref().map_or(0, |s| s.bytes);
+        let receivers = self.receivers.as_ref().map_or(0, |r| r.instances.size() + r.map.bytes());
         TechniqueStats {
-            memory_bytes: state.bytes + state.topology.bytes,
+            memory_bytes: state.bytes + store + receivers + topology,
             passes: 3 * n + u32::from(n > 1),
             draws: self.stats.draws,
             triangles: self.stats.triangles.unwrap_or(0),

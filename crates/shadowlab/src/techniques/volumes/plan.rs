@@ -1,6 +1,7 @@
 //! The CPU half of a shadow-volume frame: per light sample, which counting method to use, the
-//! scissor rectangle, the casters that can matter, and the stencil start value. Everything here is
-//! decided from bounding spheres and the camera, before any GPU work is recorded.
+//! scissor rectangle, the casters whose volumes are drawn, and the stencil start value. Everything
+//! here is decided from bounding spheres and the camera, before any GPU work is recorded; it is the
+//! only place the camera enters (the extracted volumes are camera-independent and cached).
 
 use glam::Vec4;
 use shadowlab_core::Aabb;
@@ -9,7 +10,7 @@ use shadowlab_core::volumes::{
     sphere_volume_touches,
 };
 
-use super::geometry::{Caster, CasterRecord, VolumeTopology};
+use super::geometry::{Caster, VolumeTopology};
 
 /// The `mode` parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,7 +68,6 @@ pub(super) struct Settings {
 /// One light sample's frame.
 #[derive(Debug, Clone)]
 pub(super) struct SamplePlan {
-    pub source: LightSource,
     pub method: Method,
     /// ZP+ was asked for, but the light lies in the near plane: z-fail instead.
     pub fallback: bool,
@@ -77,10 +77,19 @@ pub(super) struct SamplePlan {
     pub stencil_start: u32,
     /// Pixels (x, y, width, height); `None`: the whole surface.
     pub scissor: Option<[u32; 4]>,
-    pub planes: [Vec4; 5],
-    pub records: Vec<CasterRecord>,
-    pub faces: u32,
-    pub edges: u32,
+    /// The casters whose volumes are drawn (culled against the frustum through the scissor and
+    /// the light's range), in slot order.
+    pub casters: Vec<Drawn>,
+}
+
+/// A caster drawn for one sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Drawn {
+    /// Its slot in the volume store (`store.rs`).
+    pub slot: u32,
+    /// ZP+ starts the count with its light caps (Toromanoff 2005 §VI.2.a: in `auto`, only casters
+    /// whose volume may meet the near pyramid).
+    pub zp_listed: bool,
 }
 
 /// Everything a plan needs to know about the frame.
@@ -90,6 +99,8 @@ pub(super) struct FrameView<'a> {
     pub height: u32,
     pub range: Option<f32>,
     pub casters: &'a [Caster],
+    /// The store slot of each caster.
+    pub slots: &'a [u32],
     pub topology: &'a VolumeTopology,
     /// Bounds of every caster (the depth range of the ZP+ projection for the sun).
     pub bounds: &'a Aabb,
@@ -97,17 +108,14 @@ pub(super) struct FrameView<'a> {
 
 pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSource) -> SamplePlan {
     let mut plan = SamplePlan {
-        source,
         method: Method::Skip,
         fallback: false,
         robust: false,
         stencil_start: 0,
         scissor: None,
-        planes: frame.camera.planes([-1.0, -1.0, 1.0, 1.0]),
-        records: Vec::new(),
-        faces: 0,
-        edges: 0,
+        casters: Vec::new(),
     };
+    let mut planes: [Vec4; 5] = frame.camera.planes([-1.0, -1.0, 1.0, 1.0]);
     // Hasselgren 2003 §3.3.1.1: the light's screen rectangle bounds everything it lights.
     let light_sphere = match (source, frame.range) {
         (LightSource::Point(p), Some(r)) => Some((p, r)),
@@ -122,17 +130,18 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
             SphereRect::Rect(ndc) => {
                 let Some(rect) = pixel_rect(ndc, frame.width, frame.height) else { return plan };
                 plan.scissor = Some(rect);
-                plan.planes = frame.camera.planes(ndc);
+                planes = frame.camera.planes(ndc);
             }
         }
     }
-    let active: Vec<&Caster> = frame
+    let active: Vec<(&Caster, u32)> = frame
         .casters
         .iter()
-        .filter(|c| {
+        .zip(frame.slots.iter().copied())
+        .filter(|(c, _)| {
             !settings.cull
                 || (light_sphere.is_none_or(|(p, r)| p.distance(c.centre) - c.radius <= r)
-                    && plan.planes.iter().all(|&pl| sphere_volume_reaches_plane(&source, c.centre, c.radius, pl)))
+                    && planes.iter().all(|&pl| sphere_volume_reaches_plane(&source, c.centre, c.radius, pl)))
         })
         .collect();
     if active.is_empty() {
@@ -142,7 +151,7 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
     let touches = |c: &Caster, q, rho| {
         sphere_volume_touches(&source, c.centre, c.radius, q, rho) && box_volume_touches(&source, &c.bounds, q, rho)
     };
-    let touching: Vec<bool> = active.iter().map(|c| touches(c, near_centre, near_radius)).collect();
+    let touching: Vec<bool> = active.iter().map(|(c, _)| touches(c, near_centre, near_radius)).collect();
     let zp_plus = |plan: &mut SamplePlan| match frame.camera.zp_plus(&source, frame.bounds) {
         Some(zp) => Method::ZpPlus(zp),
         None => {
@@ -168,17 +177,13 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
         let eye = frame.camera.eye;
         let inside: u32 = active
             .iter()
-            .filter(|c| touches(c, eye, 0.0))
-            .map(|c| crossings(&frame.topology.topologies[c.mesh], &c.transform, &source, c.two_sided, eye))
+            .filter(|(c, _)| touches(c, eye, 0.0))
+            .map(|(c, _)| crossings(&frame.topology.topologies[c.mesh], &c.transform, &source, c.two_sided, eye))
             .sum();
         plan.stencil_start = inside & 1;
     }
-    for (i, c) in active.iter().enumerate() {
-        let ranges = &frame.topology.meshes[c.mesh];
-        plan.records.push(CasterRecord::new(c, ranges, plan.faces, plan.edges, listed(i)));
-        plan.faces += ranges.faces;
-        plan.edges += ranges.edges;
-    }
+    plan.casters = active.iter().enumerate().map(|(i, &(_, slot))| Drawn { slot, zp_listed: listed(i) }).collect();
+    plan.casters.sort_unstable_by_key(|d| d.slot);
     plan
 }
 

@@ -1,0 +1,578 @@
+//! `shadowlab play`: a timeline of edits over frames on the live engine (DESIGN.md §11), measured
+//! frame by frame: time, the work each frame re-did, the cache's memory, and at checks the live
+//! engine against a fresh uncached one and against the ray-traced truth on the same surface.
+//!
+//! 1. Load the scene, read the timeline (built-in or file) and resolve it whole ([`timeline`]):
+//!    every error is found before the GPU opens.
+//! 2. Per frame: apply the frame's steps (edits, a light added and shadowed, resize, camera),
+//!    render, record time, work and memory; at checks read the surface and compare.
+//! 3. Write `timeline.json`, `timeline.svg`, `report.html` and the timeline as run
+//!    (`timeline.toml`).
+
+pub mod timeline;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail, ensure};
+use serde_json::{Value, json};
+use shadowlab::{Edit, Renderer, TechniqueSpec};
+use shadowlab_core::LightId;
+use shadowlab_reference::metrics::ErrorStats;
+use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference};
+
+use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, parse_size};
+use crate::measure::median;
+use crate::progress;
+use crate::report;
+use timeline::{BUILT_IN, DragMode, Plan, Step};
+
+/// The technique set on every light when none is given.
+pub const DEFAULT_TECHNIQUE: &str = "pcf";
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A built-in scene (`shadowlab scenes`), optionally with options (`room:lamps=8`), or a
+    /// .toml, .gltf, .glb or .obj file.
+    #[arg(long, default_value = "room")]
+    scene: String,
+    /// The view the timeline starts from (default: the scene's first view).
+    #[arg(long)]
+    view: Option<String>,
+    /// `drag`, `lights`, `walk` (built in) or a timeline file (docs/timeline-format.md).
+    #[arg(long)]
+    timeline: String,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "160x120", value_parser = parse_size)]
+    size: (u32, u32),
+    #[command(flatten)]
+    techniques: TechniqueArgs,
+    /// Compare with a fresh engine and the truth every K frames (and on and after every event);
+    /// 0: never.
+    #[arg(long, default_value_t = 30)]
+    check_every: u32,
+    /// Reference emitter samples per pixel at checks (area lights).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    samples: u32,
+    /// Reference seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Run with caching off: every frame rebuilds everything (the uncached baseline).
+    #[arg(long)]
+    no_cache: bool,
+    /// Drag objects as a series of permanent moves instead of temporary objects (Toromanoff's
+    /// configuration 1: every move invalidates the caches it reaches).
+    #[arg(long)]
+    drag_as_permanent: bool,
+    /// Scale every light's emitter size; 0 makes all lights hard.
+    #[arg(long, default_value_t = 1.0)]
+    emitter_scale: f32,
+    /// Check the timeline and print its events per frame as JSON, without a GPU.
+    #[arg(long)]
+    dry_run: bool,
+    /// Output directory.
+    #[arg(long, default_value = "out/play")]
+    out: PathBuf,
+}
+
+/// One frame's measurements.
+struct FrameRecord {
+    gpu_ms: Option<f64>,
+    cpu_ms: f64,
+    work: shadowlab::Work,
+    cache_bytes: u64,
+    width: u32,
+    height: u32,
+}
+
+/// One check's figures, pooled over the measured lights.
+struct Check {
+    frame: usize,
+    vs_fresh: ErrorStats,
+    vs_truth: ErrorStats,
+}
+
+pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
+    let scene_args = SceneArgs {
+        scene: args.scene.clone(),
+        view: args.view.clone(),
+        size: args.size,
+        lights: Vec::new(),
+        emitter_scale: args.emitter_scale,
+    };
+    let setup = scene_args.load()?;
+    let specs = args.techniques.specs(&[DEFAULT_TECHNIQUE])?;
+    let (name, text) = read_timeline(&args.timeline, &setup.scene)?;
+    let mode = if args.drag_as_permanent { DragMode::Permanent } else { DragMode::Temporary };
+    let plan = timeline::parse(&text)
+        .and_then(|t| timeline::plan(&t, &setup.scene, mode))
+        .with_context(|| format!("timeline {name}"))?;
+    if args.dry_run {
+        let events: Vec<Value> = plan
+            .frames
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.has_event())
+            .map(|(i, f)| json!({ "frame": i, "events": f.events }))
+            .collect();
+        let out = json!({ "timeline": name, "scene": setup.scene.name, "frames": plan.frames.len(), "events": events });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::write(args.out.join("timeline.toml"), &text)?;
+    let gpu = open_gpu(global)?;
+    let mut r = Renderer::new(&gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
+    r.shadows.set_caching(!args.no_cache);
+    let none = TechniqueSpec::parse("none", &[])?;
+    let mut measured = Vec::new();
+    for i in 0..setup.scene.lights.len() as u32 {
+        if shadow_light(&mut r, LightId(i), &specs, &none)? {
+            measured.push(LightId(i));
+        }
+    }
+    let settings = ReferenceSettings { samples: args.samples, seed: args.seed };
+    let k = args.check_every as usize;
+    let checked = |f: usize| {
+        k > 0 && (f.is_multiple_of(k) || plan.frames[f].has_event() || (f > 0 && plan.frames[f - 1].has_event()))
+    };
+
+    let bar = progress::bar(plan.frames.len() as u64, "timeline (GPU)");
+    let mut records = Vec::with_capacity(plan.frames.len());
+    let mut checks = Vec::new();
+    for (f, fp) in plan.frames.iter().enumerate() {
+        for step in &fp.steps {
+            apply(&mut r, step, &specs, &none, &mut measured).with_context(|| format!("frame {f}"))?;
+        }
+        let report = r.render().with_context(|| format!("frame {f}"))?;
+        records.push(FrameRecord {
+            gpu_ms: report.gpu.map(|t| t.total()),
+            cpu_ms: report.cpu_ms,
+            work: report.work,
+            cache_bytes: r.shadows.memory_bytes(),
+            width: r.width,
+            height: r.height,
+        });
+        if checked(f) {
+            bar.set_message(format!("check at frame {f}"));
+            checks.push(check(&r, f, &measured, &settings).with_context(|| format!("check at frame {f}"))?);
+            bar.set_message("timeline (GPU)");
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    let doc = document(&args, &name, &setup, &specs, &gpu, &plan, &records, &checks);
+    std::fs::write(args.out.join("timeline.json"), serde_json::to_string_pretty(&doc)?)?;
+    let svg = plot(&plan, &records, doc["time_source"].as_str().unwrap_or("cpu"))?;
+    std::fs::write(args.out.join("timeline.svg"), &svg)?;
+    std::fs::write(args.out.join("report.html"), report_html(&doc, &svg))?;
+    print_summary(&doc);
+    println!("→ {}", args.out.join("report.html").display());
+    Ok(())
+}
+
+/// The timeline's name and text: a built-in for the scene, or a file.
+fn read_timeline(spec: &str, scene: &shadowlab_core::Scene) -> Result<(String, String)> {
+    let path = Path::new(spec);
+    // A built-in's name is never taken for a file of that name in the working directory.
+    let is_file = spec.contains(['/', '\\']) || spec.ends_with(".toml") || (!BUILT_IN.contains(&spec) && path.exists());
+    if !is_file {
+        return match timeline::built_in(spec, scene)
+            .with_context(|| format!("built-in timeline '{spec}' on scene '{}'", scene.name))?
+        {
+            Some(text) => Ok((spec.to_owned(), text)),
+            None => bail!("no built-in timeline '{spec}' (built in: {}; or a .toml file)", BUILT_IN.join(", ")),
+        };
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("reading timeline {}", path.display()))?;
+    let text = String::from_utf8(bytes).with_context(|| format!("timeline {} is not UTF-8 text", path.display()))?;
+    Ok((path.display().to_string(), text))
+}
+
+/// Shadows `id` with the last spec that supports it, or leaves it unshadowed (`none`) with a
+/// warning; returns whether it is measured (has a technique of the run).
+fn shadow_light(r: &mut Renderer, id: LightId, specs: &[TechniqueSpec], none: &TechniqueSpec) -> Result<bool> {
+    let light = r.shadows.live().light(id).context("no such light")?.clone();
+    match specs.iter().rev().find(|s| s.info.supports(&light)) {
+        Some(spec) => {
+            r.set_technique(id, spec).with_context(|| format!("light '{}'", light.name))?;
+            Ok(true)
+        }
+        None => {
+            eprintln!(
+                "warning: no technique given supports {} light '{}': it stays unshadowed",
+                light.type_name(),
+                light.name
+            );
+            r.set_technique(id, none)?;
+            Ok(false)
+        }
+    }
+}
+
+fn apply(
+    r: &mut Renderer,
+    step: &Step,
+    specs: &[TechniqueSpec],
+    none: &TechniqueSpec,
+    measured: &mut Vec<LightId>,
+) -> Result<()> {
+    match step {
+        Step::Edit(edit) => {
+            r.apply(edit.clone())?;
+        }
+        Step::AddLight { light, id } => {
+            let applied = r.apply(Edit::AddLight(light.clone()))?;
+            // The plan's dry run gave the ids the engine gives: later edits of this light use it.
+            ensure!(applied.light == Some(*id), "light '{}' got id {:?}, the plan {:?}", light.name, applied.light, id);
+            if shadow_light(r, *id, specs, none)? {
+                measured.push(*id);
+            }
+        }
+        Step::Resize(w, h) => r.resize(*w, *h)?,
+        Step::Camera(view) => r.set_view(view),
+    }
+    Ok(())
+}
+
+/// The live engine against a fresh uncached one (over each light's relevant pixels) and against
+/// the ray-traced truth, on the surface of the frame just rendered, pooled over the measured lights.
+fn check(r: &Renderer, frame: usize, measured: &[LightId], settings: &ReferenceSettings) -> Result<Check> {
+    let surface = r.read_surface()?;
+    let live = r.live_visibility()?;
+    let fresh = r.fresh_visibility()?;
+    let scene = r.scene();
+    let indices: Vec<usize> = measured.iter().filter_map(|id| r.shadows.live().light_index(*id)).collect();
+    let lights: Vec<(u32, &shadowlab_core::Light)> = indices.iter().map(|&i| (i as u32, &scene.lights[i])).collect();
+    let bvh = SceneBvh::build(scene, Selection::Casters);
+    let truth = reference(&bvh, &surface, &lights, settings, None);
+    let (mut vs_fresh, mut vs_truth) = (ErrorStats::default(), ErrorStats::default());
+    for (k, &i) in indices.iter().enumerate() {
+        let find = |list: &[(usize, Vec<f32>)]| list.iter().find(|(j, _)| *j == i).map(|(_, v)| v.clone());
+        let name = &scene.lights[i].name;
+        let lv = find(&live).with_context(|| format!("light '{name}' has no live visibility"))?;
+        let fv = find(&fresh).with_context(|| format!("light '{name}' has no fresh visibility"))?;
+        vs_fresh.merge(&ErrorStats::compare_masked(&lv, &fv, &surface.relevance(&scene.lights[i])));
+        vs_truth.merge(&ErrorStats::compare(&lv, &truth.lights[k].values));
+    }
+    Ok(Check { frame, vs_fresh, vs_truth })
+}
+
+fn ms(records: &[FrameRecord], gpu: bool) -> Vec<f64> {
+    records.iter().map(|r| if gpu { r.gpu_ms.unwrap_or(f64::NAN) } else { r.cpu_ms }).collect()
+}
+
+/// A number, or null when not finite (JSON has no NaN).
+fn finite(x: f64) -> Value {
+    if x.is_finite() { json!(x) } else { Value::Null }
+}
+
+/// `timeline.json`.
+#[allow(clippy::too_many_arguments)]
+fn document(
+    args: &Args,
+    name: &str,
+    setup: &crate::args::Setup,
+    specs: &[TechniqueSpec],
+    gpu: &shadowlab::Gpu,
+    plan: &Plan,
+    records: &[FrameRecord],
+    checks: &[Check],
+) -> Value {
+    let gpu_timed = records.iter().all(|r| r.gpu_ms.is_some());
+    let times = ms(records, gpu_timed);
+    let still = plan.still();
+    let frames: Vec<Value> = records
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let fp = &plan.frames[i];
+            json!({
+                "index": i,
+                "gpu_ms": r.gpu_ms,
+                "cpu_ms": r.cpu_ms,
+                "frame_ms": finite(times[i]),
+                "events": fp.events,
+                "work": r.work.counts().iter().map(|(k, v)| ((*k).to_owned(), json!(v))).collect::<serde_json::Map<_, _>>(),
+                "cache_bytes": r.cache_bytes,
+                "still": still[i],
+                "dragging": fp.dragging,
+                "camera_moving": fp.camera_moving,
+                "width": r.width,
+                "height": r.height,
+            })
+        })
+        .collect();
+    let pick = |keep: &dyn Fn(usize) -> bool| -> Vec<f64> {
+        times.iter().enumerate().filter(|&(i, t)| keep(i) && t.is_finite()).map(|(_, t)| *t).collect()
+    };
+    let still_ms = pick(&|i| still[i]);
+    let drag_ms = pick(&|i| plan.frames[i].dragging);
+    let all_ms = pick(&|_| true);
+    let opt = |v: &[f64], f: fn(Vec<f64>) -> f64| if v.is_empty() { Value::Null } else { finite(f(v.to_vec())) };
+    let max = |v: Vec<f64>| v.into_iter().fold(f64::NEG_INFINITY, f64::max);
+    let rmse = |s: &ErrorStats| if s.pixels == 0 { Value::Null } else { finite(s.rmse()) };
+    let checks_json: Vec<Value> = checks
+        .iter()
+        .map(|c| {
+            json!({
+                "frame": c.frame,
+                "rmse_vs_fresh": rmse(&c.vs_fresh),
+                "max_abs_vs_fresh": if c.vs_fresh.pixels == 0 { Value::Null } else { json!(c.vs_fresh.max_abs) },
+                "rmse_vs_truth": rmse(&c.vs_truth),
+                "wrong_frac_vs_truth": if c.vs_truth.pixels == 0 { Value::Null } else { finite(c.vs_truth.wrong_frac()) },
+                "relevant_pixels": c.vs_fresh.pixels,
+            })
+        })
+        .collect();
+    let total = |key: &str| -> u64 {
+        records.iter().map(|r| r.work.counts().iter().find(|(k, _)| *k == key).map_or(0, |(_, v)| u64::from(*v))).sum()
+    };
+    json!({
+        "scene": setup.scene.name,
+        "timeline": name,
+        "techniques": specs.iter().map(|s| s.spec.clone()).collect::<Vec<_>>(),
+        "adapter": { "name": gpu.adapter.name, "backend": gpu.adapter.backend, "device_type": gpu.adapter.device_type },
+        "width": setup.width,
+        "height": setup.height,
+        "view": setup.view.name,
+        "cached": !args.no_cache,
+        "drag_as_permanent": args.drag_as_permanent,
+        "time_source": if gpu_timed { "gpu" } else { "cpu" },
+        "check_every": args.check_every,
+        "reference": { "samples": args.samples, "seed": args.seed },
+        "frames": frames,
+        "checks": checks_json,
+        "summary": {
+            "median_still_ms": opt(&still_ms, median),
+            "max_drag_ms": opt(&drag_ms, max),
+            "median_drag_ms": opt(&drag_ms, median),
+            "max_frame_ms": opt(&all_ms, max),
+            "median_frame_ms": opt(&all_ms, median),
+            "cache_bytes_first": records.first().map(|r| r.cache_bytes),
+            "cache_bytes_last": records.last().map(|r| r.cache_bytes),
+            "still_frames": still_ms.len(),
+            "drag_frames": drag_ms.len(),
+            "map_views_total": total("map_views"),
+            "temporary_views_total": total("temporary_views"),
+            "max_rmse_vs_fresh": checks.iter().filter(|c| c.vs_fresh.pixels > 0).map(|c| c.vs_fresh.rmse()).reduce(f64::max),
+            "max_abs_vs_fresh": checks.iter().filter(|c| c.vs_fresh.pixels > 0).map(|c| f64::from(c.vs_fresh.max_abs)).reduce(f64::max),
+        },
+    })
+}
+
+/// Frame time per frame (line), map views re-rendered per frame (bars, right axis), each event a
+/// vertical line with its label. Times far above the median (the first frame builds every cache)
+/// are clipped to keep the rest readable, their values written beside them.
+fn plot(plan: &Plan, records: &[FrameRecord], time_source: &str) -> Result<String> {
+    use plotters::prelude::*;
+    report::register_font();
+    let times = ms(records, time_source == "gpu");
+    let n = records.len().max(1) as f64;
+    let finite: Vec<f64> = times.iter().copied().filter(|t| t.is_finite()).collect();
+    let highest = finite.iter().copied().fold(0.0, f64::max).max(1e-3);
+    let clip = highest.min(5.0 * median(finite.clone()).max(1e-3));
+    // Room above the highest point for the events' labels.
+    let top = clip * 1.4;
+    let max_views = records.iter().map(|r| r.work.map_views).max().unwrap_or(0).max(1) as f64 * 1.4;
+    let unit = time_source.to_uppercase();
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (960, 440)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{unit} ms per frame (blue line) and map views re-rendered (orange bars, right axis)"),
+                ("sans-serif", 16),
+            )
+            .margin(16)
+            .x_label_area_size(42)
+            .y_label_area_size(64)
+            .right_y_label_area_size(64)
+            .build_cartesian_2d(-0.5..n - 0.5, 0.0..top)?
+            .set_secondary_coord(-0.5..n - 0.5, 0.0..max_views);
+        chart
+            .configure_mesh()
+            .x_desc("frame")
+            .y_desc(format!("{unit} ms per frame"))
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        chart
+            .configure_secondary_axes()
+            .y_desc("map views re-rendered")
+            .y_label_formatter(&|y| format!("{y:.0}"))
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        let bars = RGBColor(255, 127, 14);
+        chart.draw_secondary_series(records.iter().enumerate().filter(|(_, r)| r.work.map_views > 0).map(
+            |(i, r)| {
+                let x = i as f64;
+                Rectangle::new([(x - 0.4, 0.0), (x + 0.4, f64::from(r.work.map_views))], bars.mix(0.5).filled())
+            },
+        ))?;
+        let line = RGBColor(31, 119, 180);
+        let points: Vec<(f64, f64)> =
+            times.iter().enumerate().filter(|(_, t)| t.is_finite()).map(|(i, t)| (i as f64, t.min(clip))).collect();
+        chart.draw_series(LineSeries::new(points, line.stroke_width(2)))?;
+        for (i, t) in times.iter().enumerate().filter(|(_, t)| **t > clip) {
+            chart.draw_series(std::iter::once(
+                EmptyElement::at((i as f64, clip))
+                    + Text::new(format!("{t:.0} ▲"), (4, -14), ("sans-serif", 12).into_font().color(&line)),
+            ))?;
+        }
+        let mark = RGBColor(214, 39, 40);
+        for (row, (i, fp)) in plan.frames.iter().enumerate().filter(|(_, f)| f.has_event()).enumerate() {
+            let x = i as f64;
+            chart.draw_series(std::iter::once(PathElement::new(vec![(x, 0.0), (x, top)], mark.mix(0.6))))?;
+            let mut label = fp.events.join("; ");
+            if label.chars().count() > 40 {
+                label = label.chars().take(39).collect::<String>() + "…";
+            }
+            let y = top * (0.97 - 0.06 * (row % 4) as f64);
+            chart.draw_series(std::iter::once(
+                EmptyElement::at((x, y)) + Text::new(label, (4, 0), ("sans-serif", 12).into_font().color(&mark)),
+            ))?;
+        }
+        root.present()?;
+    }
+    Ok(svg)
+}
+
+fn fmt(v: &Value, digits: usize) -> String {
+    v.as_f64().map(|x| format!("{x:.digits$}")).unwrap_or_else(|| "–".to_owned())
+}
+
+fn mib(v: &Value) -> String {
+    v.as_f64().map(|b| format!("{:.1}", b / (1024.0 * 1024.0))).unwrap_or_else(|| "–".to_owned())
+}
+
+fn print_summary(doc: &Value) {
+    let s = &doc["summary"];
+    let unit = doc["time_source"].as_str().unwrap_or("cpu").to_uppercase();
+    println!(
+        "{} frames ({} still, {} dragging), {unit} ms: median still {}, median drag {}, max drag {}, max {}; cache {} → {} MiB",
+        doc["frames"].as_array().map_or(0, Vec::len),
+        s["still_frames"],
+        s["drag_frames"],
+        fmt(&s["median_still_ms"], 2),
+        fmt(&s["median_drag_ms"], 2),
+        fmt(&s["max_drag_ms"], 2),
+        fmt(&s["max_frame_ms"], 2),
+        mib(&s["cache_bytes_first"]),
+        mib(&s["cache_bytes_last"]),
+    );
+    if let Some(checks) = doc["checks"].as_array().filter(|c| !c.is_empty()) {
+        println!(
+            "{} checks: max RMSE vs fresh {}, max |Δ| vs fresh {}",
+            checks.len(),
+            fmt(&s["max_rmse_vs_fresh"], 5),
+            fmt(&s["max_abs_vs_fresh"], 5)
+        );
+    }
+}
+
+fn report_html(doc: &Value, svg: &str) -> String {
+    let s = &doc["summary"];
+    let summary = report::table(
+        &[
+            "frames",
+            "still",
+            "dragging",
+            "median still ms",
+            "median drag ms",
+            "max drag ms",
+            "max frame ms",
+            "map views (all frames)",
+            "cache MiB first",
+            "cache MiB last",
+        ],
+        &[vec![
+            doc["frames"].as_array().map_or(0, Vec::len).to_string(),
+            s["still_frames"].to_string(),
+            s["drag_frames"].to_string(),
+            fmt(&s["median_still_ms"], 2),
+            fmt(&s["median_drag_ms"], 2),
+            fmt(&s["max_drag_ms"], 2),
+            fmt(&s["max_frame_ms"], 2),
+            s["map_views_total"].to_string(),
+            mib(&s["cache_bytes_first"]),
+            mib(&s["cache_bytes_last"]),
+        ]],
+    );
+    let empty = Vec::new();
+    let frames = doc["frames"].as_array().unwrap_or(&empty);
+    let checks_rows: Vec<Vec<String>> = doc["checks"]
+        .as_array()
+        .unwrap_or(&empty)
+        .iter()
+        .map(|c| {
+            let f = c["frame"].as_u64().unwrap_or(0) as usize;
+            let events = frames.get(f).and_then(|x| x["events"].as_array()).cloned().unwrap_or_default();
+            vec![
+                f.to_string(),
+                fmt(&c["rmse_vs_fresh"], 5),
+                fmt(&c["max_abs_vs_fresh"], 5),
+                fmt(&c["rmse_vs_truth"], 4),
+                c["wrong_frac_vs_truth"].as_f64().map(|x| format!("{:.2}%", 100.0 * x)).unwrap_or_default(),
+                report::escape(&events.iter().filter_map(Value::as_str).collect::<Vec<_>>().join("; ")),
+            ]
+        })
+        .collect();
+    let checks = report::table(
+        &["frame", "RMSE vs fresh", "max |Δ| vs fresh", "RMSE vs truth", "wrong vs truth", "events this frame"],
+        &checks_rows,
+    );
+    let event_rows: Vec<Vec<String>> = frames
+        .iter()
+        .filter(|f| f["events"].as_array().is_some_and(|e| !e.is_empty()))
+        .map(|f| {
+            let w = &f["work"];
+            vec![
+                f["index"].to_string(),
+                report::escape(
+                    &f["events"]
+                        .as_array()
+                        .unwrap_or(&empty)
+                        .iter()
+                        .filter_map(Value::as_str)
+                        .collect::<Vec<_>>()
+                        .join("; "),
+                ),
+                fmt(&f["frame_ms"], 2),
+                w["map_views"].to_string(),
+                w["temporary_views"].to_string(),
+                w["reused"].to_string(),
+            ]
+        })
+        .collect();
+    let events = report::table(&["frame", "events", "ms", "map views", "temporary views", "reused"], &event_rows);
+    let a = &doc["adapter"];
+    let techniques: Vec<String> =
+        doc["techniques"].as_array().unwrap_or(&empty).iter().filter_map(Value::as_str).map(report::escape).collect();
+    format!(
+        "<!doctype html><html><head><meta charset=\"utf-8\"><title>shadowlab play: {scene} / {timeline}</title><style>{style}</style></head><body>\
+<h1>shadowlab play: {scene} / {timeline}</h1>\
+<p>{w}×{h} pixels · techniques: {techniques} · caching {cached} · drags {drags} · adapter: {adapter} ({backend}, {dtype}) · times: {source}</p>\
+<h2>Summary</h2>{summary}\
+<p class=\"note\">Still frames: no event, no drag, and more than {settling} frames after the last event (the first frame, which builds every cache, counts as one). Drag frames: a drag is active. On a CPU adapter only ratios within a run (or between a cached and an uncached run) mean anything.</p>\
+<h2>Frame time and work</h2>{svg}\
+<h2>Checks</h2><p class=\"note\">The live engine against a fresh, uncached engine on the same state and surface (over each light's relevant pixels; it must be 0 for exact techniques), and against the ray-traced truth ({samples} samples; wrong = |Δ| &gt; 0.1), pooled over the shadowed lights.</p>{checks}\
+<h2>Events</h2>{events}\
+</body></html>",
+        scene = report::escape(doc["scene"].as_str().unwrap_or("")),
+        timeline = report::escape(doc["timeline"].as_str().unwrap_or("")),
+        style = report::STYLE,
+        w = doc["width"],
+        h = doc["height"],
+        techniques = techniques.join(", "),
+        cached = if doc["cached"].as_bool() == Some(true) { "on" } else { "off" },
+        drags = if doc["drag_as_permanent"].as_bool() == Some(true) { "as permanent moves" } else { "temporary" },
+        adapter = report::escape(a["name"].as_str().unwrap_or("")),
+        backend = a["backend"].as_str().unwrap_or(""),
+        dtype = a["device_type"].as_str().unwrap_or(""),
+        source = doc["time_source"].as_str().unwrap_or(""),
+        settling = timeline::SETTLING_FRAMES,
+        samples = doc["reference"]["samples"],
+    )
+}

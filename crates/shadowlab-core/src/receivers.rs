@@ -1,0 +1,211 @@
+//! Large planar receivers: the flat parts of floors, walls and ceilings that receiver light maps
+//! cover (Toromanoff 2005 §F–H, NOTES-000: a visibility texture per light in the receiver's own
+//! plane, at "object resolution").
+//!
+//! A receiver's world-space triangles are grouped by plane (same unit normal, same offset); every
+//! group of at least a given area becomes a [`Patch`]: the rectangle of that plane that covers the
+//! group, with an orthonormal frame along whichever of the group's edge directions gives the
+//! smallest rectangle, so that boxes and walls get tight rectangles.
+
+use glam::Vec3;
+
+use crate::scene::{Instance, Role, Scene};
+
+/// A flat, rectangular part of a receiver: its plane, frame and extent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Patch {
+    /// Index of the instance in `Scene::instances`.
+    pub instance: usize,
+    /// Unit normal of the receiving side (the side the triangles face).
+    pub normal: Vec3,
+    /// `normal · p` of the plane's points.
+    pub offset: f32,
+    /// The rectangle's corner: it spans `origin + u·axis_u + v·axis_v` for u in [0, width], v in
+    /// [0, height].
+    pub origin: Vec3,
+    pub axis_u: Vec3,
+    pub axis_v: Vec3,
+    pub width: f32,
+    pub height: f32,
+    /// Area of the triangles in the patch.
+    pub area: f32,
+}
+
+impl Patch {
+    /// The world position of rectangle coordinates `(u, v)`.
+    pub fn point(&self, u: f32, v: f32) -> Vec3 {
+        self.origin + self.axis_u * u + self.axis_v * v
+    }
+
+    /// The rectangle's four corners.
+    pub fn corners(&self) -> [Vec3; 4] {
+        [
+            self.point(0.0, 0.0),
+            self.point(self.width, 0.0),
+            self.point(0.0, self.height),
+            self.point(self.width, self.height),
+        ]
+    }
+}
+
+/// Whether an instance receives light maps: its role says it is a receiver, or its mesh is flat
+/// (one plane) and at least `min_area` large.
+pub fn is_receiver(scene: &Scene, inst: &Instance, min_area: f32) -> bool {
+    if !inst.receives_shadows {
+        return false;
+    }
+    if inst.role == Some(Role::Receiver) {
+        return true;
+    }
+    let patches = instance_patches(scene, inst, 0, 0.0);
+    patches.len() == 1 && patches[0].area >= min_area && {
+        let mesh = scene.mesh(inst.mesh);
+        let total: f32 = (0..mesh.triangle_count())
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t).map(|p| inst.transform.transform_point3(p));
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum();
+        patches[0].area >= 0.99 * total
+    }
+}
+
+/// The patches of every receiver of the scene, planes of at least `min_area` m² each.
+pub fn planar_patches(scene: &Scene, min_area: f32) -> Vec<Patch> {
+    scene
+        .instances
+        .iter()
+        .enumerate()
+        .filter(|(_, inst)| is_receiver(scene, inst, min_area))
+        .flat_map(|(i, inst)| instance_patches(scene, inst, i, min_area))
+        .collect()
+}
+
+/// The planes of one instance with at least `min_area` of triangles.
+pub fn instance_patches(scene: &Scene, inst: &Instance, index: usize, min_area: f32) -> Vec<Patch> {
+    let Some(mesh) = scene.meshes.get(inst.mesh.index()) else { return Vec::new() };
+    let bounds = mesh.bounds().transformed(&inst.transform);
+    let tolerance = 1e-5 * bounds.diagonal().max(1e-3);
+    struct Group {
+        normal: Vec3,
+        offset: f32,
+        area: f32,
+        points: Vec<Vec3>,
+        /// Distinct edge directions (up to a few hundred), candidates for the rectangle's axis.
+        edges: Vec<Vec3>,
+    }
+    let mut groups: Vec<Group> = Vec::new();
+    let mut planes: std::collections::HashMap<(i32, i32, i32, i64), usize> = std::collections::HashMap::new();
+    for t in 0..mesh.triangle_count() {
+        let [a, b, c] = mesh.corners(t).map(|p| inst.transform.transform_point3(p));
+        let cross = (b - a).cross(c - a);
+        let area = 0.5 * cross.length();
+        if area.is_nan() || area <= 0.0 || !area.is_finite() {
+            continue;
+        }
+        let mut normal = cross.normalize();
+        if inst.transform.matrix3.determinant() < 0.0 {
+            normal = -normal;
+        }
+        let offset = normal.dot(a);
+        // Planes are found by their quantised normal and offset (a hash, so that curved meshes with
+        // a plane per triangle stay linear in time).
+        let key = (
+            (normal.x * 1e4).round() as i32,
+            (normal.y * 1e4).round() as i32,
+            (normal.z * 1e4).round() as i32,
+            (offset / (4.0 * tolerance)).round() as i64,
+        );
+        let k = *planes.entry(key).or_insert_with(|| {
+            groups.push(Group { normal, offset, area: 0.0, points: Vec::new(), edges: Vec::new() });
+            groups.len() - 1
+        });
+        let g = &mut groups[k];
+        g.area += area;
+        g.points.extend([a, b, c]);
+        for e in [b - a, c - b, a - c] {
+            let e = (e - g.normal * e.dot(g.normal)).normalize_or_zero();
+            if e != Vec3::ZERO && g.edges.len() < 256 && !g.edges.iter().any(|d| d.dot(e).abs() > 1.0 - 1e-5) {
+                g.edges.push(e);
+            }
+        }
+    }
+    groups
+        .into_iter()
+        .filter(|g| g.area >= min_area && g.area > 0.0)
+        .map(|g| {
+            let extent = |axis_u: Vec3| {
+                let axis_v = g.normal.cross(axis_u);
+                let (mut lo, mut hi) = ((f32::MAX, f32::MAX), (f32::MIN, f32::MIN));
+                for p in &g.points {
+                    let (u, v) = (p.dot(axis_u), p.dot(axis_v));
+                    lo = (lo.0.min(u), lo.1.min(v));
+                    hi = (hi.0.max(u), hi.1.max(v));
+                }
+                (axis_u, axis_v, lo, hi)
+            };
+            let area = |e: &(Vec3, Vec3, (f32, f32), (f32, f32))| (e.3.0 - e.2.0) * (e.3.1 - e.2.1);
+            let candidates = if g.edges.is_empty() { vec![g.normal.any_orthonormal_vector()] } else { g.edges.clone() };
+            let (axis_u, axis_v, lo, hi) = candidates
+                .into_iter()
+                .map(extent)
+                .min_by(|x, y| area(x).total_cmp(&area(y)))
+                .expect("at least one candidate");
+            let origin = g.normal * g.offset + axis_u * lo.0 + axis_v * lo.1;
+            Patch {
+                instance: index,
+                normal: g.normal,
+                offset: g.offset,
+                origin,
+                axis_u,
+                axis_v,
+                width: hi.0 - lo.0,
+                height: hi.1 - lo.1,
+                area: g.area,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{Affine3A, Quat};
+
+    use super::*;
+    use crate::{Material, primitives};
+
+    #[test]
+    fn a_box_floor_has_its_large_faces_as_patches() {
+        let mut s = Scene::new("t");
+        let m = s.add_mesh(primitives::cuboid_between(Vec3::new(-2.0, -0.1, -1.5), Vec3::new(2.0, 0.0, 1.5)));
+        let mat = s.add_material(Material::default());
+        s.add_instance(Instance::new("floor", m, mat, Affine3A::IDENTITY)).with_role(Role::Receiver);
+        let patches = planar_patches(&s, 1.0);
+        // Top and bottom (4 × 3 m²); the sides are 0.4 m² and 0.3 m².
+        assert_eq!(patches.len(), 2, "{patches:?}");
+        let top = patches.iter().find(|p| p.normal.y > 0.5).expect("the top");
+        assert!((top.offset - 0.0).abs() < 1e-6 && (top.area - 12.0).abs() < 1e-4);
+        assert!((top.width * top.height - 12.0).abs() < 1e-3, "a tight rectangle: {top:?}");
+        for c in top.corners() {
+            assert!(c.y.abs() < 1e-6 && c.x.abs() <= 2.0 + 1e-5 && c.z.abs() <= 1.5 + 1e-5, "{c}");
+        }
+    }
+
+    #[test]
+    fn a_turned_card_is_a_receiver_by_being_flat_and_large() {
+        let mut s = Scene::new("t");
+        let m = s.add_mesh(primitives::plane(2.0, 1.0, 4, 2));
+        let mat = s.add_material(Material::default());
+        let t = Affine3A::from_rotation_translation(Quat::from_rotation_x(0.7), Vec3::new(1.0, 2.0, 3.0));
+        s.add_instance(Instance::new("card", m, mat, t));
+        let small = s.add_mesh(primitives::plane(0.5, 0.5, 1, 1));
+        s.add_instance(Instance::new("tile", small, mat, Affine3A::IDENTITY));
+        let ball = s.add_mesh(primitives::sphere(1.0, 16, 8));
+        s.add_instance(Instance::new("ball", ball, mat, Affine3A::IDENTITY));
+        let patches = planar_patches(&s, 1.0);
+        assert_eq!(patches.len(), 1, "the card only (the tile is 0.25 m², the ball not flat)");
+        let p = patches[0];
+        assert!((p.area - 2.0).abs() < 1e-4 && (p.width * p.height - 2.0).abs() < 1e-3, "{p:?}");
+        assert!((p.normal - t.transform_vector3(Vec3::Y)).length() < 1e-5);
+    }
+}

@@ -1,0 +1,76 @@
+// Receiver light maps, filled one emitter sample at a time (Toromanoff 2005 alg. F–H): the casters
+// are drawn from the sample through a frustum whose far plane is the receiver's plane and whose
+// window is the receiver's rectangle, so each covered pixel IS a light-map texel in shadow; a
+// stencil marks them. Two full-screen draws then add the sample's weight w to every texel's total
+// (G) and to the lit sum (R) where no caster was drawn: V = R / G.
+
+// #include "common.wgsl"
+
+struct Fill {
+    // Clip = projection × world: the sample's frustum onto the patch rectangle.
+    projection: mat4x4<f32>,
+    // xyz: the rectangle's corner; w: its width (world units).
+    origin: vec4<f32>,
+    // xyz: the width axis; w: the height.
+    axis_u: vec4<f32>,
+    // xyz: the height axis; w: 1 when the sample is hidden behind the receiver's plane.
+    axis_v: vec4<f32>,
+    // xyz: sphere normal at the sample; w: 1 when samples are weighted by projected area.
+    sphere: vec4<f32>,
+    // xyz: the light's centre; w: texels across the rectangle's width.
+    centre: vec4<f32>,
+    // x: texels across its height.
+    texels: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> fill: Fill;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) model0: vec4<f32>,
+    @location(3) model1: vec4<f32>,
+    @location(4) model2: vec4<f32>,
+    @location(5) model3: vec4<f32>,
+};
+
+@vertex
+fn occluder_vs(v: VertexIn) -> @builtin(position) vec4<f32> {
+    let model = mat4x4<f32>(v.model0, v.model1, v.model2, v.model3);
+    return fill.projection * (model * vec4<f32>(v.position, 1.0));
+}
+
+@fragment
+fn occluder_fs() -> @location(0) vec4<f32> {
+    return vec4<f32>(0.0);
+}
+
+@vertex
+fn screen_vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    return fullscreen_position(i);
+}
+
+// The sample's weight at the texel under `frag`: its projected area seen from there (sphere lights).
+fn weight(frag: vec4<f32>) -> f32 {
+    if (fill.sphere.w < 0.5) {
+        return 1.0;
+    }
+    let u = frag.x / fill.centre.w * fill.origin.w;
+    let v = frag.y / fill.texels.x * fill.axis_u.w;
+    let p = fill.origin.xyz + fill.axis_u.xyz * u + fill.axis_v.xyz * v;
+    return max(dot(fill.sphere.xyz, normalize(p - fill.centre.xyz)), 0.0);
+}
+
+// Texels no caster covered: lit (unless the sample is behind the plane).
+@fragment
+fn lit_fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+    let w = weight(frag);
+    let lit = select(1.0, 0.0, fill.axis_v.w > 0.5);
+    return vec4<f32>(lit * w, w, 0.0, 0.0);
+}
+
+// Texels a caster covered: the weight counts, the light does not.
+@fragment
+fn shadowed_fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+    return vec4<f32>(0.0, weight(frag), 0.0, 0.0);
+}

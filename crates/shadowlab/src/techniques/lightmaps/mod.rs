@@ -1,0 +1,673 @@
+//! `lightmaps`: receiver light maps (Toromanoff 2005, NOTES-000 §F, G, H, K — his answer for soft
+//! shadows on floors and walls), with the other pixels left to a second technique (`rest`,
+//! `volumes` by default: Toromanoff's final pipeline).
+//!
+//! Every large planar receiver ([`shadowlab_core::receivers`]: role `receiver`, or any flat instance
+//! of at least `min_area` m²) gets, per light, a visibility texture in its own plane at "object
+//! resolution" (`texel` metres per texel, at most `max_texels` per side). It is filled one emitter
+//! sample at a time: the casters are drawn from the sample through an off-centre frustum whose far
+//! plane lies on the receiver and whose window is the receiver's rectangle (orthographic along the
+//! sun's direction for directional samples), so each covered pixel is a texel in that sample's
+//! shadow (Toromanoff alg. F–G); the samples' weights add up per texel (sphere lights: each
+//! sample's projected area, as `sampled` does). `fill=sampled` takes `samples` points of the
+//! emitter (`pattern`: grid, stratified, Toromanoff's rings); `fill=hard` one at its centre.
+//!
+//! The maps are view-independent: once filled they cost one lookup per pixel however the camera
+//! moves, and each (light, receiver) map is a cached item of the live engine (its signature: the
+//! light's emitter, the receiver's transform, the casters between them and their versions), so it
+//! is refilled only when a caster in that region, the receiver or the light changes. The receiver
+//! itself is left out of its own map (its plane is the frustum's far plane).
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3, Vec4};
+use shadowlab_core::params::ParamDef;
+use shadowlab_core::receivers::{Patch, planar_patches};
+use shadowlab_core::sampling::{EmitterPoint, EmitterSample, SamplePattern, emitter_points_with};
+use shadowlab_core::{Aabb, Light, ParamSet};
+
+use super::sampled::PATTERN;
+use crate::context::{Shared, storage_entry, uniform_entry};
+use crate::frame::VisibilityLayer;
+use crate::gpu_scene::{INSTANCE_LAYOUT, VERTEX_LAYOUT};
+use crate::live::validity::{Region, hash_values, lightmap_signature};
+use crate::live::{ItemKey, ItemKind};
+use crate::shadowmap::PERMANENT;
+use crate::technique::{
+    Compose, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+};
+use crate::timing::PassKind;
+
+/// The techniques that may shadow the pixels off the receivers.
+const REST: &[&str] =
+    &["volumes", "none", "hard", "pcf", "pcss", "blurred", "sampled", "cssm", "smoothies", "cascaded"];
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    id: "lightmaps",
+    summary: "receiver light maps (sampled soft shadows in the receivers' planes), another technique elsewhere",
+    source: "Toromanoff 2005 alg. F, G, H, K (NOTES-000)",
+    params: &[
+        ParamDef::choice("rest", "volumes", REST, "technique for the pixels off the receivers"),
+        ParamDef::choice(
+            "fill",
+            "sampled",
+            &["sampled", "hard"],
+            "light maps from emitter samples, or the centre only",
+        ),
+        ParamDef::int("samples", 64, 1, 1024, "emitter samples per light map (fill=sampled)"),
+        PATTERN,
+        ParamDef::float("texel", 0.02, 0.001, 1.0, "light-map texel size on the receiver, in world units"),
+        ParamDef::int("max_texels", 1024, 16, 4096, "most texels per side of one light map"),
+        ParamDef::float("min_area", 1.0, 0.01, 1.0e6, "smallest flat part (m²) that gets a light map"),
+        ParamDef::bool(
+            "bilinear",
+            true,
+            "bilinear lookups (false: nearest texel; bilinear ones bleed a texel of shadow into joints with walls)",
+        ),
+    ],
+    light_types: super::ALL_LIGHTS,
+    create,
+    compose: Some(Compose { param: "rest", create: compose }),
+};
+
+/// Light maps are always made around another technique (the registry creates it from `rest`).
+fn create(_shared: &Shared, _params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+    Err(TechniqueError::Failed { id: INFO.id.into(), message: "create it through its spec (it wraps `rest`)".into() })
+}
+
+fn compose(
+    shared: &Shared,
+    params: &ParamSet,
+    _light: &Light,
+    rest: Box<dyn ShadowTechnique>,
+) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+    let lookup = shared.resolve_pipeline(
+        "lightmaps lookup",
+        include_str!("lookup.wgsl"),
+        "main",
+        &[&lookup_layout(shared)],
+        &[],
+    );
+    Ok(Box::new(Lightmaps { params: params.clone(), rest, state: None, lookup, filled: 0, draws: 0 }))
+}
+
+/// `struct Fill` of `fill.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct FillUniform {
+    projection: Mat4,
+    origin: Vec4,
+    axis_u: Vec4,
+    axis_v: Vec4,
+    sphere: Vec4,
+    centre: Vec4,
+    texels: Vec4,
+}
+
+/// `struct Patch` of `lookup.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct PatchUniform {
+    origin: Vec4,
+    axis_u: Vec4,
+    axis_v: Vec4,
+    plane: Vec4,
+    texels: Vec4,
+}
+
+/// Format of the light maps: R = Σ w·V, G = Σ w (blendable everywhere).
+const MAP_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const STENCIL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Stencil8;
+
+struct Lightmaps {
+    params: ParamSet,
+    rest: Box<dyn ShadowTechnique>,
+    state: Option<State>,
+    lookup: wgpu::ComputePipeline,
+    /// Light maps filled in the last frame.
+    filled: u32,
+    draws: u32,
+}
+
+/// The patches of the scene as it was at `epoch`, their textures and bind groups.
+struct State {
+    epoch: u64,
+    patches: Vec<Patch>,
+    /// Texels across each patch's width and height.
+    texels: Vec<(u32, u32)>,
+    /// The cache's set id of these textures.
+    set: u32,
+    /// The light maps, one layer per patch (the views below keep it alive; held for clarity).
+    _maps: wgpu::Texture,
+    layer_views: Vec<wgpu::TextureView>,
+    size: (u32, u32),
+    stencil: wgpu::TextureView,
+    fills: wgpu::Buffer,
+    fill_stride: u64,
+    fill_group: wgpu::BindGroup,
+    patch_buffer: wgpu::Buffer,
+    count_buffer: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    bytes: u64,
+}
+
+fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("lightmaps lookup", || {
+        let c = wgpu::ShaderStages::COMPUTE;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lightmaps lookup"),
+            entries: &[
+                uniform_entry(0, c),
+                storage_entry(1, c, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: c,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: c,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        })
+    })
+}
+
+fn fill_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("lightmaps fill", || {
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lightmaps fill"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: std::num::NonZeroU64::new(std::mem::size_of::<FillUniform>() as u64),
+                },
+                count: None,
+            }],
+        })
+    })
+}
+
+/// The fill pipelines: casters into the stencil; the lit and the shadowed texels' sums.
+fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
+    shared.render_pipeline(&format!("lightmaps {which}"), || {
+        let device = &shared.gpu.device;
+        let module = crate::shader::module(device, "lightmaps fill", include_str!("fill.wgsl"));
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("lightmaps fill"),
+            bind_group_layouts: &[Some(&fill_layout(shared))],
+            immediate_size: 0,
+        });
+        let occluder = which == "occluder";
+        let face = |compare, pass_op| wgpu::StencilFaceState {
+            compare,
+            fail_op: wgpu::StencilOperation::Keep,
+            depth_fail_op: wgpu::StencilOperation::Keep,
+            pass_op,
+        };
+        let stencil_face = if occluder {
+            face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Replace)
+        } else {
+            face(wgpu::CompareFunction::Equal, wgpu::StencilOperation::Keep)
+        };
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let buffers: &[Option<wgpu::VertexBufferLayout<'_>>] =
+            if occluder { &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)] } else { &[] };
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(which),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some(if occluder { "occluder_vs" } else { "screen_vs" }),
+                compilation_options: Default::default(),
+                buffers,
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: STENCIL_FORMAT,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: wgpu::StencilState { front: stencil_face, back: stencil_face, read_mask: 1, write_mask: 1 },
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some(match which {
+                    "occluder" => "occluder_fs",
+                    "lit" => "lit_fs",
+                    _ => "shadowed_fs",
+                }),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: MAP_FORMAT,
+                    blend: (!occluder).then_some(wgpu::BlendState { color: add, alpha: add }),
+                    write_mask: if occluder { wgpu::ColorWrites::empty() } else { wgpu::ColorWrites::ALL },
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    })
+}
+
+impl Lightmaps {
+    /// Texels across a patch (the `texel` size, at most `max_texels`).
+    fn texels(&self, p: &Patch) -> (u32, u32) {
+        let texel = self.params.float("texel") as f32;
+        let max = self.params.int("max_texels") as u32;
+        let n = |len: f32| ((len / texel).ceil().max(1.0) as u32).min(max);
+        (n(p.width), n(p.height))
+    }
+
+    fn emitter_samples(&self, light: &Light) -> Vec<EmitterPoint> {
+        if self.params.choice("fill") == "hard" || light.is_hard() {
+            let mut centre = light.clone();
+            centre.scale_emitter(0.0);
+            return emitter_points_with(&centre, 1, SamplePattern::Grid);
+        }
+        let pattern = SamplePattern::parse(self.params.choice("pattern")).unwrap_or(SamplePattern::Grid);
+        emitter_points_with(light, self.params.int("samples") as u32, pattern)
+    }
+
+    fn build(&self, ctx: &mut FrameContext<'_>, patches: Vec<Patch>, samples: usize) -> State {
+        let shared = ctx.shared;
+        let device = &shared.gpu.device;
+        let texels: Vec<(u32, u32)> = patches.iter().map(|p| self.texels(p)).collect();
+        let size = texels.iter().fold((1, 1), |a, t| (a.0.max(t.0), a.1.max(t.1)));
+        let layers = crate::shadowmap::padded_layers(patches.len().max(1) as u32, shared.gpu.adapter.backend == "gl");
+        let maps = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("light maps"),
+            size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: layers },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: MAP_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let layer_views = (0..patches.len().max(1) as u32)
+            .map(|l| {
+                maps.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: l,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        let stencil = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("light map stencil"),
+                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: STENCIL_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&Default::default());
+        let fill_stride = crate::live::validity::aligned(
+            std::mem::size_of::<FillUniform>() as u64,
+            u64::from(device.limits().min_uniform_buffer_offset_alignment),
+        );
+        let fills = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light map fills"),
+            size: fill_stride * (patches.len().max(1) * samples.max(1)) as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let fill_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("light map fills"),
+            layout: &fill_layout(shared),
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &fills,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(std::mem::size_of::<FillUniform>() as u64),
+                }),
+            }],
+        });
+        let patch_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light map patches"),
+            size: (std::mem::size_of::<PatchUniform>() * patches.len().max(1)) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let count_buffer = crate::util::uniform_buffer(
+            device,
+            "light map count",
+            bytemuck::bytes_of(&Vec4::new(0.0, size.0 as f32, size.1 as f32, 0.0)),
+        );
+        let filter = if self.params.bool("bilinear") { wgpu::FilterMode::Linear } else { wgpu::FilterMode::Nearest };
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("light maps"),
+            mag_filter: filter,
+            min_filter: filter,
+            ..Default::default()
+        });
+        let array_view = maps.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("light map lookup"),
+            layout: &lookup_layout(shared),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: count_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: patch_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&array_view) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&sampler) },
+            ],
+        });
+        let bytes = u64::from(size.0) * u64::from(size.1) * (8 * u64::from(layers) + 1)
+            + fills.size()
+            + patch_buffer.size()
+            + count_buffer.size();
+        State {
+            epoch: ctx.live.epoch(),
+            patches,
+            texels,
+            set: ctx.cache.new_set(),
+            _maps: maps,
+            layer_views,
+            size,
+            stencil,
+            fills,
+            fill_stride,
+            fill_group,
+            patch_buffer,
+            count_buffer,
+            group,
+            bytes,
+        }
+    }
+}
+
+/// The clip-space projection of one emitter sample onto a patch: a frustum from the sample whose
+/// far plane is the patch's plane and whose window is its rectangle (texel rows down `axis_v`);
+/// for a direction, the parallel projection along it. `None` when the sample is behind the plane.
+fn sample_projection(p: &Patch, sample: &EmitterSample, reach: f32) -> Option<Mat4> {
+    let (n, c, o, eu, ev) = (p.normal, p.offset, p.origin, p.axis_u, p.axis_v);
+    let (w, h) = (p.width.max(1e-6), p.height.max(1e-6));
+    // Rows of the clip matrix as (xyz, constant) pairs: clip = Σ row · (p, 1).
+    let row = |v: Vec3, k: f32| Vec4::new(v.x, v.y, v.z, k);
+    match *sample {
+        EmitterSample::Point(s) => {
+            let hs = n.dot(s) - c;
+            if hs <= 1e-4 * reach {
+                return None;
+            }
+            // w(p) = n·(s − p)/h_s: 1 on the plane, 0 at the sample's level.
+            let rw = row(-n / hs, n.dot(s) / hs);
+            // u·w = ((s − o)·e_u · w + (p − s)·e_u) / W, then x = 2·u·w − w.
+            let su = (s - o).dot(eu);
+            let sv = (s - o).dot(ev);
+            let ru = (rw * su + row(eu, -s.dot(eu))) / w;
+            let rv = (rw * sv + row(ev, -s.dot(ev))) / h;
+            let rx = ru * 2.0 - rw;
+            let ry = rw - rv * 2.0;
+            // z/w from 0 at w = 1e-4 (next to the sample) to 1 on the plane; beyond it > 1 (clipped).
+            let near = 1e-4;
+            let rz = rw * (1.0 / (1.0 - near)) + Vec4::new(0.0, 0.0, 0.0, -near / (1.0 - near));
+            Some(Mat4::from_cols(rx, ry, rz, rw).transpose())
+        }
+        EmitterSample::Direction(to_light) => {
+            let l = to_light.normalize_or(Vec3::Y);
+            let nl = n.dot(l);
+            if nl <= 1e-4 {
+                return None;
+            }
+            // q = p − l·height/(n·l) on the plane; height = n·p − c.
+            let q_u = row(eu - n * (l.dot(eu) / nl), c * l.dot(eu) / nl - o.dot(eu));
+            let q_v = row(ev - n * (l.dot(ev) / nl), c * l.dot(ev) / nl - o.dot(ev));
+            let rx = q_u * (2.0 / w) + Vec4::new(0.0, 0.0, 0.0, -1.0);
+            let ry = Vec4::new(0.0, 0.0, 0.0, 1.0) - q_v * (2.0 / h);
+            // Depth 1 on the plane, 0 at `reach` above it (towards the light); below it > 1.
+            let rz = row(-n / reach, 1.0 + c / reach);
+            let rw = Vec4::new(0.0, 0.0, 0.0, 1.0);
+            Some(Mat4::from_cols(rx, ry, rz, rw).transpose())
+        }
+    }
+}
+
+/// The box that holds every caster able to shadow a patch: the patch and the emitter (for the sun,
+/// the patch pulled `reach` towards it).
+fn patch_region(p: &Patch, light: &Light, samples: &[EmitterPoint], reach: f32) -> Aabb {
+    let mut b = Aabb::from_points(p.corners());
+    for s in samples {
+        match s.sample {
+            EmitterSample::Point(q) => b.grow(q),
+            EmitterSample::Direction(d) => {
+                for c in p.corners() {
+                    b.grow(c + d.normalize_or(Vec3::Y) * reach);
+                }
+            }
+        }
+    }
+    if let Some(q) = light.position() {
+        b.grow(q);
+    }
+    b
+}
+
+impl ShadowTechnique for Lightmaps {
+    fn id(&self) -> &'static str {
+        INFO.id
+    }
+
+    fn params(&self) -> &ParamSet {
+        &self.params
+    }
+
+    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        self.rest.prepare(ctx)?;
+        let samples = self.emitter_samples(ctx.light);
+        let epoch = ctx.live.epoch();
+        if self.state.as_ref().is_none_or(|s| s.epoch != epoch) {
+            let patches = planar_patches(ctx.scene, self.params.float("min_area") as f32);
+            let same_layout = self.state.as_ref().is_some_and(|s| {
+                s.patches.len() == patches.len() && patches.iter().zip(&s.texels).all(|(p, &t)| self.texels(p) == t)
+            });
+            let fits = self
+                .state
+                .as_ref()
+                .is_some_and(|s| s.fills.size() >= s.fill_stride * (patches.len() * samples.len()) as u64);
+            if same_layout && fits {
+                let state = self.state.as_mut().expect("checked");
+                state.patches = patches;
+                state.epoch = epoch;
+            } else {
+                if let Some(old) = &self.state {
+                    for k in 0..old.patches.len() as u32 {
+                        let key = ItemKey {
+                            light: ctx.light_id,
+                            owner: ctx.owner,
+                            set: old.set,
+                            kind: ItemKind::LightMap,
+                            index: k,
+                        };
+                        ctx.cache.forget(&key);
+                    }
+                }
+                self.state = Some(self.build(ctx, patches, samples.len()));
+            }
+        }
+        let state = self.state.as_ref().expect("made above");
+        let queue = &ctx.gpu.queue;
+        let reach = 2.0 * ctx.gpu_scene.bounds.diagonal().max(1e-3);
+        let params_hash = hash_values(&[
+            self.params.int("samples") as f64,
+            self.params.float("texel"),
+            self.params.int("max_texels") as f64,
+            if self.params.choice("fill") == "hard" { 1.0 } else { 0.0 },
+            SamplePattern::parse(self.params.choice("pattern")).map_or(0.0, |p| p as u8 as f64),
+        ]);
+        let mut uniforms = Vec::with_capacity(state.patches.len());
+        self.filled = 0;
+        self.draws = 0;
+        for (k, patch) in state.patches.iter().enumerate() {
+            let (tw, th) = state.texels[k];
+            let receiver = &ctx.live.instances()[patch.instance];
+            let lit_side = samples.iter().any(|s| sample_projection(patch, &s.sample, reach).is_some());
+            uniforms.push(PatchUniform {
+                origin: patch.origin.extend(patch.width),
+                axis_u: patch.axis_u.extend(patch.height),
+                axis_v: patch.axis_v.extend(k as f32),
+                plane: patch.normal.extend(patch.offset),
+                texels: Vec4::new(tw as f32, th as f32, 2e-4 * reach, if lit_side { 1.0 } else { 0.0 }),
+            });
+            if !lit_side {
+                continue;
+            }
+            let region = Region::of_box(&patch_region(patch, ctx.light, &samples, reach), ctx.light);
+            let view = hash_values(&[
+                f64::from(patch.origin.x),
+                f64::from(patch.origin.y),
+                f64::from(patch.origin.z),
+                f64::from(patch.width),
+                f64::from(patch.height),
+                f64::from(tw),
+                f64::from(th),
+                params_hash as f64,
+            ]);
+            let signature = lightmap_signature(ctx.live, ctx.light_id, &region, view, patch.instance);
+            let key = ItemKey {
+                light: ctx.light_id,
+                owner: ctx.owner,
+                set: state.set,
+                kind: ItemKind::LightMap,
+                index: k as u32,
+            };
+            if ctx.cache.is_valid(&key, &signature) {
+                ctx.cache.work.reused += 1;
+                continue;
+            }
+            self.draws += fill_patch(ctx, state, k, patch, &samples, reach, receiver.id);
+            ctx.cache.commit(key, signature);
+            ctx.cache.work.lightmap_samples += samples.len() as u32;
+            self.filled += 1;
+        }
+        queue.write_buffer(&state.patch_buffer, 0, bytemuck::cast_slice(&uniforms));
+        queue.write_buffer(
+            &state.count_buffer,
+            0,
+            bytemuck::bytes_of(&Vec4::new(state.patches.len() as f32, state.size.0 as f32, state.size.1 as f32, 0.0)),
+        );
+        Ok(())
+    }
+
+    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        self.rest.resolve(ctx, out);
+        let Some(state) = &self.state else { return };
+        if state.patches.is_empty() {
+            return;
+        }
+        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        dispatch_resolve(ctx, "light maps", &self.lookup, &[&group0, &state.group]);
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        let rest = self.rest.stats();
+        let mut extra = rest.extra;
+        if let Some(s) = &self.state {
+            extra.push(("light_maps".into(), s.patches.len() as f64));
+            extra.push(("light_maps_filled".into(), f64::from(self.filled)));
+        }
+        extra.push((format!("rest_{}", self.rest.id()), 1.0));
+        TechniqueStats {
+            memory_bytes: rest.memory_bytes + self.state.as_ref().map_or(0, |s| s.bytes),
+            passes: rest.passes + 1,
+            draws: rest.draws + self.draws,
+            triangles: rest.triangles,
+            extra,
+        }
+    }
+}
+
+/// Fills patch `k`'s light map from every sample (the receiver `skip` left out). Returns the draws.
+#[allow(clippy::too_many_arguments)]
+fn fill_patch(
+    ctx: &mut FrameContext<'_>,
+    state: &State,
+    k: usize,
+    patch: &Patch,
+    samples: &[EmitterPoint],
+    reach: f32,
+    skip: crate::live::InstanceId,
+) -> u32 {
+    let shared = ctx.shared;
+    let (tw, th) = state.texels[k];
+    let centre = ctx.light.position().unwrap_or(Vec3::ZERO);
+    let skip_slot = ctx.live.instance_index(skip).and_then(|i| ctx.gpu_scene.slots.get(i).copied()).unwrap_or(u32::MAX);
+    let (occluder, lit, shadowed) =
+        (fill_pipeline(shared, "occluder"), fill_pipeline(shared, "lit"), fill_pipeline(shared, "shadowed"));
+    let mut draws = 0;
+    for (j, s) in samples.iter().enumerate() {
+        let projection = sample_projection(patch, &s.sample, reach);
+        let u = FillUniform {
+            projection: projection.unwrap_or(Mat4::IDENTITY),
+            origin: patch.origin.extend(patch.width),
+            axis_u: patch.axis_u.extend(patch.height),
+            axis_v: patch.axis_v.extend(if projection.is_none() { 1.0 } else { 0.0 }),
+            sphere: s.sphere_normal.map_or(Vec4::ZERO, |n| n.extend(1.0)),
+            centre: centre.extend(tw as f32),
+            texels: Vec4::new(th as f32, 0.0, 0.0, 0.0),
+        };
+        let slot = (k * samples.len() + j) as u64 * state.fill_stride;
+        ctx.gpu.queue.write_buffer(&state.fills, slot, bytemuck::bytes_of(&u));
+        let timestamps = ctx.timer.render_pass(&ctx.gpu.device, PassKind::Shadow);
+        let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("light map sample"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &state.layer_views[k],
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: if j == 0 { wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT) } else { wgpu::LoadOp::Load },
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &state.stencil,
+                depth_ops: None,
+                stencil_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0), store: wgpu::StoreOp::Discard }),
+            }),
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_viewport(0.0, 0.0, tw as f32, th as f32, 0.0, 1.0);
+        pass.set_scissor_rect(0, 0, tw, th);
+        pass.set_bind_group(0, Some(&state.fill_group), &[slot as u32]);
+        if projection.is_some() {
+            pass.set_pipeline(&occluder);
+            pass.set_stencil_reference(1);
+            ctx.gpu_scene.bind(&mut pass);
+            draws += ctx.gpu_scene.draw_except(&mut pass, ctx.gpu_scene.casters(PERMANENT), skip_slot);
+        }
+        pass.set_pipeline(&lit);
+        pass.set_stencil_reference(0);
+        pass.draw(0..3, 0..1);
+        pass.set_pipeline(&shadowed);
+        pass.set_stencil_reference(1);
+        pass.draw(0..3, 0..1);
+        draws += 2;
+    }
+    draws
+}

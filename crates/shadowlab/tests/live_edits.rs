@@ -1,0 +1,191 @@
+//! The live engine under many edits: what a chair in a corner costs a lamp that does not reach it,
+//! memory after thousands of random edits, a dragged object's shadow against the truth, and bad
+//! edits at the engine's level.
+
+mod common;
+
+use glam::{Affine3A, Vec3};
+use shadowlab::{Edit, EditError, LightChange, Renderer, TechniqueSpec};
+use shadowlab_core::{LightId, Mobility, SurfaceBuffer, load_scene};
+use shadowlab_reference::metrics::ErrorStats;
+
+use common::{gpu, reference};
+
+fn renderer(scene: &str, spec: &str, lights: &[LightId], size: (u32, u32)) -> Renderer {
+    let scene = load_scene(scene).unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, size.0, size.1);
+    let spec = TechniqueSpec::parse(spec, &[]).unwrap();
+    for &l in lights {
+        r.set_technique(l, &spec).unwrap();
+    }
+    r
+}
+
+/// `room:lamps=8`: a chair pushed into a corner that lamp 4's range (4 m from (1.9, 1.9, 1.35))
+/// does not reach re-renders nothing for it, while a lamp that does reach it re-renders.
+#[test]
+fn a_chair_in_a_corner_costs_nothing_to_a_lamp_that_does_not_reach_it() {
+    let scene = load_scene("room:lamps=8").unwrap().scene;
+    let far_lamp = scene.find_light("lamp 4").unwrap();
+    let near_lamp = scene.find_light("lamp 6").unwrap();
+    let corner = Vec3::new(-2.1, 0.0, -1.6); // the north-west corner of the floor
+    let light = |l: LightId| scene.lights[l.index()].clone();
+    let reach = |l: LightId| light(l).position().unwrap().distance(corner) - light(l).range.unwrap();
+    assert!(reach(far_lamp) > 0.8, "lamp 4 must not reach the corner: {}", reach(far_lamp));
+    assert!(reach(near_lamp) < -0.5, "lamp 6 must reach it: {}", reach(near_lamp));
+    for (lamp, expect_work) in [(far_lamp, false), (near_lamp, true)] {
+        let mut r = renderer("room:lamps=8", "hard:map_size=256", &[lamp], (48, 36));
+        let chair = r.shadows.live().find_instance("chair north-west").unwrap();
+        let t = r.shadows.live().instance(chair).unwrap().transform;
+        let to = Affine3A::from_translation(corner + Vec3::new(0.4, 0.0, 0.4) - Vec3::from(t.translation)) * t;
+        // Pushed into the corner first (leaving the table, which both lamps reach) ...
+        r.apply(Edit::Transform { instance: chair, transform: to }).unwrap();
+        r.render().unwrap();
+        // ... then moved about within it.
+        let nudged = Affine3A::from_translation(Vec3::new(0.1, 0.0, -0.05)) * to;
+        r.apply(Edit::Transform { instance: chair, transform: nudged }).unwrap();
+        let w = r.render().unwrap().work;
+        assert_eq!(w.map_views > 0, expect_work, "lamp {}: {w:?}", lamp.0);
+    }
+}
+
+/// 10,000 random edits (moves, mobility changes, drags, additions and removals, light changes):
+/// the GPU memory shadows hold is the same as after the first 100, and so is the cache's size.
+#[test]
+fn memory_does_not_grow_under_ten_thousand_edits() {
+    let mut r = renderer("room", "hard:map_size=64", &[LightId(0), LightId(3)], (32, 24));
+    r.render().unwrap();
+    let mut rng = shadowlab_core::sampling::Rng::for_stream(7, 1);
+    let movable: Vec<_> = ["chair east", "chair south", "cup", "bowl", "chair north-east"]
+        .map(|n| r.shadows.live().find_instance(n).unwrap())
+        .into();
+    let mut added = Vec::new();
+    let mut after_100 = (0, 0);
+    for k in 0..10_000u32 {
+        let id = movable[(rng.next_f32() * movable.len() as f32) as usize % movable.len()];
+        let edit = match (rng.next_f32() * 6.0) as u32 {
+            0 | 1 => {
+                let t = r.shadows.live().instance(id).unwrap().transform;
+                let d = Vec3::new(rng.next_f32() - 0.5, 0.0, rng.next_f32() - 0.5) * 0.05;
+                Edit::Transform { instance: id, transform: Affine3A::from_translation(d) * t }
+            }
+            2 => Edit::Mobility {
+                instance: id,
+                mobility: [Mobility::Static, Mobility::Dynamic, Mobility::Temporary]
+                    [(rng.next_f32() * 3.0) as usize % 3],
+            },
+            3 if added.len() < 3 => {
+                let mut copy = r.shadows.live().instance(id).unwrap().clone();
+                copy.name = format!("copy {k}");
+                Edit::AddInstance(Box::new(copy))
+            }
+            3 | 4 if !added.is_empty() => Edit::RemoveInstance(added.swap_remove(0)),
+            _ => Edit::Light { light: LightId(0), change: LightChange::Radius(0.05 + 0.05 * rng.next_f32()) },
+        };
+        if let Ok(a) = r.apply(edit)
+            && matches!(a.kind, shadowlab::live::EditKind::AddInstance(_))
+        {
+            added.extend(a.instance);
+        }
+        if k % 25 == 0 {
+            r.render().unwrap();
+        }
+        if k == 100 {
+            after_100 = (r.shadows.memory_bytes(), r.shadows.cached_items());
+        }
+    }
+    r.render().unwrap();
+    let last = (r.shadows.memory_bytes(), r.shadows.cached_items());
+    println!("after 100 edits {after_100:?}, after 10,000 {last:?}");
+    assert_eq!(last.0, after_100.0, "GPU memory grew");
+    // The cache holds one record per live item, whatever the number of edits: at most a static and
+    // a composite record for each of the ceiling lamp's six cube faces and the sun's one view
+    // (measured 10 after 100 edits, 11 after 10,000).
+    assert!(last.1 <= 2 * (6 + 1), "the cache holds {} records after {} at edit 100", last.1, after_100.1);
+}
+
+/// The dragged chair casts through its own pass: its shadow against the ray-traced truth is no
+/// worse than `hard`'s with the chair at rest in the same place.
+#[test]
+fn a_dragged_chair_casts_a_shadow_as_right_as_a_resting_one() {
+    let lights: Vec<LightId> = (0..4).map(LightId).collect();
+    let mut scene = load_scene("room").unwrap().scene;
+    scene.scale_emitters(0.0);
+    let wrong = |r: &mut Renderer, surface: &SurfaceBuffer| {
+        let mut s = ErrorStats::default();
+        for &l in &lights {
+            let v = r.read_visibility(l).unwrap().unwrap();
+            s.merge(&ErrorStats::compare(&v, &reference(r.scene(), surface, l, 1)));
+        }
+        s.wrong_frac()
+    };
+    let view = scene.view("default").unwrap().clone();
+    let gpu = gpu();
+    let spec = TechniqueSpec::parse("hard", &[]).unwrap();
+    let mut r = Renderer::new(&gpu, scene, &view, 96, 96);
+    for &l in &lights {
+        r.set_technique(l, &spec).unwrap();
+    }
+    let chair = r.shadows.live().find_instance("chair east").unwrap();
+    let t = r.shadows.live().instance(chair).unwrap().transform;
+    let to = Affine3A::from_translation(Vec3::new(-0.6, 0.0, 0.4)) * t;
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    r.apply(Edit::Transform { instance: chair, transform: to }).unwrap();
+    r.render().unwrap();
+    let surface = r.read_surface().unwrap();
+    let dragged = wrong(&mut r, &surface);
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
+    r.render().unwrap();
+    let resting = wrong(&mut r, &surface);
+    println!("wrong_frac: dragged {dragged:.5}, at rest {resting:.5}");
+    // Measured 0.00089 dragged against 0.00084 at rest (when every light's dragged-object pass read
+    // the last light's views, 0.021); margin: 0.1 points.
+    assert!(dragged <= resting + 0.001, "dragged {dragged} vs at rest {resting}");
+}
+
+/// Bad edits through the engine: errors that change nothing, and the next frame renders.
+#[test]
+fn bad_edits_through_the_engine_change_nothing() {
+    let mut r = renderer("room", "hard:map_size=128", &[LightId(0)], (32, 24));
+    r.render().unwrap();
+    let before = r.shadows.live().scene().clone();
+    assert!(matches!(r.resize(0, 10), Err(EditError::BadSize { .. })));
+    assert!(r.resize(1 << 20, 10).is_err());
+    assert!(r.apply(Edit::Light { light: LightId(0), change: LightChange::Radius(f32::NAN) }).is_err());
+    let chair = r.shadows.live().find_instance("chair east").unwrap();
+    let nan = Affine3A::from_translation(Vec3::NAN);
+    assert!(matches!(r.apply(Edit::Transform { instance: chair, transform: nan }), Err(EditError::BadInstance { .. })));
+    assert_eq!(r.shadows.live().scene(), &before);
+    let w = r.render().unwrap().work;
+    assert!(!w.rebuilt_anything(), "nothing changed, nothing rebuilt: {w:?}");
+}
+
+/// The frame right after an edit shows the edit: the G-buffer draws the instances as they are now
+/// (it once drew the previous frame's groups over the new instance buffer after a removal).
+#[test]
+fn the_frame_after_an_edit_draws_the_edited_scene() {
+    let mut r = renderer("room", "hard:map_size=128", &[LightId(0)], (48, 36));
+    r.render().unwrap();
+    let edits = |r: &Renderer| {
+        let live = r.shadows.live();
+        let (cup, chair) = (live.find_instance("cup").unwrap(), live.find_instance("chair south").unwrap());
+        let t = live.instance(chair).unwrap().transform;
+        [
+            Edit::RemoveInstance(cup),
+            Edit::Transform { instance: chair, transform: Affine3A::from_translation(Vec3::new(0.3, 0.0, 0.0)) * t },
+            Edit::Mobility { instance: chair, mobility: Mobility::Dynamic },
+        ]
+    };
+    for edit in edits(&r) {
+        let what = format!("{edit:?}");
+        r.apply(edit).unwrap();
+        r.render().unwrap();
+        let live_surface = r.read_surface().unwrap();
+        let view = r.scene().view("default").unwrap().clone();
+        let mut fresh = Renderer::new(&gpu(), r.scene().clone(), &view, 48, 36);
+        fresh.render().unwrap();
+        let fresh_surface = fresh.read_surface().unwrap();
+        assert!(live_surface.positions == fresh_surface.positions, "after {what} the G-buffer lags");
+    }
+}

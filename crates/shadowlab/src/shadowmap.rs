@@ -204,11 +204,21 @@ impl ShadowMapArray {
     /// the views, matrices and their buffers stay.
     pub fn grown(self, shared: &Shared, encoder: &mut wgpu::CommandEncoder, layers: u32) -> Self {
         let mut bigger = Self::new(shared, self.size, layers.max(self.layers), self.capacity);
-        encoder.copy_texture_to_texture(
-            self.texture.as_image_copy(),
-            bigger.texture.as_image_copy(),
-            wgpu::Extent3d { width: self.size, height: self.size, depth_or_array_layers: self.layers },
-        );
+        // Layer by layer: wgpu-core 30 records at most two barriers per copy, and the layers of a
+        // used array may be in several states (one copy of all of them panics in `finish`).
+        for layer in 0..self.layers {
+            let at = |texture| wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+                aspect: wgpu::TextureAspect::All,
+            };
+            encoder.copy_texture_to_texture(
+                at(&self.texture),
+                at(&bigger.texture),
+                wgpu::Extent3d { width: self.size, height: self.size, depth_or_array_layers: 1 },
+            );
+        }
         // Keep the old buffers: they hold the views already written.
         bigger.matrices = self.matrices;
         bigger.matrices_group = self.matrices_group;

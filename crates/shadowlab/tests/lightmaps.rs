@@ -83,3 +83,41 @@ fn a_camera_path_refills_no_light_map() {
         assert_eq!((w.lightmap_samples, w.map_views), (0, 0), "moving to '{}' re-rendered {w:?}", v.name);
     }
 }
+
+/// `fill=smoothies` (Toromanoff alg. E in light maps): the centre's umbra with the smoothies' outer
+/// penumbra, as the `smoothies` technique draws it, at the cost of one pass per light map.
+#[test]
+fn smoothie_filled_light_maps_follow_the_smoothies_technique() {
+    let gpu = gpu();
+    let scene = load_scene("penumbra").unwrap().scene;
+    let setup = shadowlab_core::scenes::penumbra::PenumbraSetup::default();
+    let view = scene.view("top").unwrap().clone();
+    let ground = |spec: &str| {
+        let run = render(&gpu, &scene, &view, 96, spec, &[LightId(0)]);
+        let v = run.visibility(LightId(0));
+        let (mut sum, mut n, mut soft) = (0.0f64, 0usize, 0usize);
+        for (i, &x) in v.iter().enumerate() {
+            let p = run.surface.positions[i];
+            if !run.surface.covered[i] || p.y.abs() > 1e-3 {
+                continue;
+            }
+            sum += f64::from(x - setup.visibility(p)).powi(2);
+            n += 1;
+            soft += usize::from(x > 0.02 && x < 0.98);
+        }
+        ((sum / n.max(1) as f64).sqrt(), soft)
+    };
+    let (maps, maps_soft) = ground("lightmaps:fill=smoothies,rest=hard");
+    let (technique, technique_soft) = ground("smoothies");
+    let (hard, _) = ground("lightmaps:fill=hard,rest=hard");
+    println!(
+        "penumbra RMSE: smoothie light maps {maps:.4} ({maps_soft} soft px), smoothies {technique:.4} ({technique_soft}), hard light maps {hard:.4}"
+    );
+    // Measured 0.1014 against 0.1003 for the technique: both keep the hard umbra and add the outer
+    // penumbra only, too dark for this 0.5 m light (hard light maps, the umbra alone: 0.0861).
+    // Bound: within 20% of the technique.
+    assert!(maps < 1.2 * technique, "{maps} vs {technique}, hard {hard}");
+    // They draw a penumbra: partly lit pixels, at least three quarters as many as the technique
+    // (measured 576 against 432).
+    assert!(4 * maps_soft > 3 * technique_soft && maps_soft > 200, "{maps_soft} vs {technique_soft}");
+}

@@ -27,7 +27,7 @@ use crate::report;
 use timeline::{BUILT_IN, DragMode, Plan, Step};
 
 /// The technique set on every light when none is given.
-pub const DEFAULT_TECHNIQUE: &str = "pcf";
+pub const DEFAULT_TECHNIQUE: &str = "lightmaps";
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

@@ -7,9 +7,10 @@
 //! itself, the static casters that reach it and their versions). When dynamic casters reach the
 //! view, a **composite layer** holds a copy of the static layer with those casters drawn over it,
 //! kept while they stand still; views no dynamic caster reaches are looked up in their static layer
-//! directly. Composite layers are allocated the first time a dynamic caster needs one (the array
-//! grows once, its static layers copied over); where the device cannot hold them, static and
-//! dynamic casters share the static layer and its signature names both.
+//! directly. A view gets its composite layer the first time a dynamic caster reaches it (the array
+//! grows by a quarter of its views at a time, its layers copied over, so only views that dynamic
+//! casters reach cost memory twice); where the device cannot hold more layers, static and dynamic
+//! casters share the static layer and its signature names both.
 //!
 //! With caching disabled ([`super::ShadowCache::set_enabled`]) every view is rendered every frame
 //! with all permanent casters in one pass: the uncached engine the cached one is checked against.
@@ -46,8 +47,12 @@ pub struct MapViews {
     /// Per view: the texture layer lookups read this frame.
     layers: Vec<u32>,
     checked: Vec<Option<Checked>>,
-    /// Whether the array has a composite layer per view (layers `count..2·count`).
-    composite: bool,
+    /// Per view: its composite layer, once a dynamic caster has reached it.
+    composite_layer: Vec<Option<u32>>,
+    /// Layers the array has (the static layers `0..count`, then composite ones).
+    allocated: u32,
+    /// The next composite layer to hand out.
+    next_composite: u32,
     /// Bumped when the texture is reallocated: bind groups over it must be made again.
     generation: u32,
     /// Draws issued by the last update.
@@ -65,7 +70,9 @@ impl MapViews {
             views: Vec::new(),
             layers: vec![u32::MAX; count as usize],
             checked: vec![None; count as usize],
-            composite: false,
+            composite_layer: vec![None; count as usize],
+            allocated: count,
+            next_composite: count,
             generation: 0,
             draws: 0,
         }
@@ -102,9 +109,16 @@ impl MapViews {
         ItemKey { light: ctx.light_id, owner: ctx.owner, set: self.set, kind, index: i }
     }
 
-    /// Whether the device can hold a composite layer per view.
-    fn composite_fits(&self, shared: &Shared) -> bool {
-        2 * self.count <= shared.gpu.device.limits().max_texture_array_layers
+    /// The composite layers a growth adds.
+    fn growth(&self) -> u32 {
+        (self.count / 4).max(1)
+    }
+
+    /// Whether view `i` has, or can get, a composite layer.
+    fn composite_fits(&self, shared: &Shared, i: u32) -> bool {
+        self.composite_layer[i as usize].is_some()
+            || self.next_composite < self.allocated
+            || self.allocated + self.growth() <= shared.gpu.device.limits().max_texture_array_layers
     }
 
     /// Sets this frame's views (`views.len()` must be [`MapViews::len`]) and renders the layers
@@ -181,7 +195,7 @@ impl MapViews {
         let region = Region::of_view(&view.view_projection, ctx.light);
         let (static_sig, composite_sig, has_dynamic) = view_signatures(ctx.live, ctx.light_id, &region, vh);
         let static_key = self.key(ctx, ItemKind::StaticView, i);
-        if has_dynamic && !self.composite && !self.composite_fits(ctx.shared) {
+        if has_dynamic && !self.composite_fits(ctx.shared, i) {
             // No room for composite copies: both classes share the static layer.
             let sig = composite_sig;
             if ctx.cache.is_valid(&static_key, &sig) {
@@ -206,11 +220,18 @@ impl MapViews {
         if !has_dynamic {
             return Ok(i);
         }
-        if !self.composite {
-            self.grow_for_composites(ctx);
-        }
+        let target = match self.composite_layer[i as usize] {
+            Some(layer) => layer,
+            None => {
+                if self.next_composite == self.allocated {
+                    self.grow(ctx);
+                }
+                self.next_composite += 1;
+                self.composite_layer[i as usize] = Some(self.next_composite - 1);
+                self.next_composite - 1
+            }
+        };
         let composite_key = self.key(ctx, ItemKind::CompositeView, i);
-        let target = self.count + i;
         if ctx.cache.is_valid(&composite_key, &composite_sig) {
             ctx.cache.work.reused += 1;
         } else {
@@ -234,18 +255,14 @@ impl MapViews {
         }
     }
 
-    /// Gives every view a composite layer: the array doubles once, its static layers copied over.
-    fn grow_for_composites(&mut self, ctx: &mut FrameContext<'_>) {
+    /// Adds room for composite layers: a new array, every layer copied over (so every record
+    /// stays true: each view keeps its layers).
+    fn grow(&mut self, ctx: &mut FrameContext<'_>) {
         let placeholder = ShadowMapArray::new(ctx.shared, 1, 1, 1);
         let old = std::mem::replace(&mut self.maps, placeholder);
-        self.maps = old.grown(ctx.shared, ctx.encoder, 2 * self.count);
-        self.composite = true;
+        self.allocated += self.growth();
+        self.maps = old.grown(ctx.shared, ctx.encoder, self.allocated);
         self.generation += 1;
-        // No composite layer holds anything yet.
-        for i in 0..self.count {
-            let key = self.key(ctx, ItemKind::CompositeView, i);
-            ctx.cache.forget(&key);
-        }
     }
 }
 

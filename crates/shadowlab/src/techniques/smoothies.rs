@@ -46,7 +46,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 const BUFFER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Uint;
 
 /// The welded topology of every mesh, shared by every light's smoothies.
-struct MeshTopologies(Vec<Topology>);
+pub(super) struct MeshTopologies(Vec<Topology>);
+
+/// The scene's mesh topologies (built once, shared).
+pub(super) fn topologies(shared: &Shared, scene: &Scene) -> Arc<MeshTopologies> {
+    shared.resource("mesh topologies", || MeshTopologies(scene.meshes.iter().map(Topology::build).collect()))
+}
 
 struct SmoothieState {
     buffer: wgpu::Texture,
@@ -166,14 +171,21 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
 }
 
 /// The emitter's radius (local lights) or the tangent of its angular radius (the sun).
-fn emitter_size(light: &Light) -> f32 {
+pub(super) fn emitter_size(light: &Light) -> f32 {
     match light.emitter_extent() {
         EmitterExtent::Radius(r) | EmitterExtent::Angle(r) => r,
     }
 }
 
-/// The smoothies of every caster for `light`, as a flat vertex list (position, offset).
-fn scene_smoothies(scene: &Scene, topologies: &MeshTopologies, light: &Light, emitter: f32) -> Vec<[f32; 4]> {
+/// The smoothies of every permanent caster for `light`, per instance (its index in the scene) as a
+/// flat vertex list (position, offset); `emitter` is the light's radius or the tangent of its
+/// angular radius. Shared with `lightmaps`' smoothie fill.
+pub(super) fn instance_smoothies(
+    scene: &Scene,
+    topologies: &MeshTopologies,
+    light: &Light,
+    emitter: f32,
+) -> Vec<(usize, Vec<[f32; 4]>)> {
     let source = LightSource::of(light);
     let bounds = scene.bounds();
     let corners = bounds.corners();
@@ -193,16 +205,18 @@ fn scene_smoothies(scene: &Scene, topologies: &MeshTopologies, light: &Light, em
     };
     let mut out = Vec::new();
     // Temporary (dragged) objects have a pass of their own.
-    for inst in scene.instances.iter().filter(|i| i.casts_shadows && i.mobility != shadowlab_core::Mobility::Temporary)
-    {
+    let permanent = |i: &shadowlab_core::Instance| i.casts_shadows && i.mobility != shadowlab_core::Mobility::Temporary;
+    for (index, inst) in scene.instances.iter().enumerate().filter(|(_, i)| permanent(i)) {
         let topo = &topologies.0[inst.mesh.index()];
         if topo.triangles.is_empty() {
             continue;
         }
         let two_sided = !topo.report().is_closed() || scene.material(inst.material).double_sided;
-        for t in smoothies(topo, &inst.transform, &source, two_sided, width) {
-            out.extend(t.iter().map(|v: &SmoothieVertex| [v.position.x, v.position.y, v.position.z, v.offset]));
-        }
+        let vertices: Vec<[f32; 4]> = smoothies(topo, &inst.transform, &source, two_sided, width)
+            .iter()
+            .flat_map(|t| t.map(|v: SmoothieVertex| [v.position.x, v.position.y, v.position.z, v.offset]))
+            .collect();
+        out.push((index, vertices));
     }
     out
 }
@@ -320,9 +334,11 @@ impl ShadowTechnique for Smoothies {
                 bytemuck::bytes_of(&v.view_projection),
             );
         }
-        let topologies: Arc<MeshTopologies> = shared
-            .resource("mesh topologies", || MeshTopologies(ctx.scene.meshes.iter().map(Topology::build).collect()));
-        let vertices = scene_smoothies(ctx.scene, &topologies, ctx.light, self.emitter);
+        let topologies = topologies(shared, ctx.scene);
+        let vertices: Vec<[f32; 4]> = instance_smoothies(ctx.scene, &topologies, ctx.light, self.emitter)
+            .into_iter()
+            .flat_map(|(_, v)| v)
+            .collect();
         let bytes: &[u8] = bytemuck::cast_slice(&vertices);
         if state.vertices.as_ref().is_none_or(|b| b.size() < bytes.len() as u64) && !bytes.is_empty() {
             state.vertices = Some(shared.gpu.device.create_buffer(&wgpu::BufferDescriptor {

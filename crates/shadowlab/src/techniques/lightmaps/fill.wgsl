@@ -19,7 +19,9 @@ struct Fill {
     sphere: vec4<f32>,
     // xyz: the light's centre; w: texels across the rectangle's width.
     centre: vec4<f32>,
-    // x: texels across its height.
+    // x: texels across its height; y: the emitter's radius or tan of its angular radius
+    // (smoothies); z: 1 for a directional light, whose unit direction towards it is then in
+    // `sphere.xyz`.
     texels: vec4<f32>,
 };
 
@@ -50,15 +52,19 @@ fn screen_vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     return fullscreen_position(i);
 }
 
+// The receiver's point at the texel under `frag`.
+fn texel_point(frag: vec4<f32>) -> vec3<f32> {
+    let u = frag.x / fill.centre.w * fill.origin.w;
+    let v = frag.y / fill.texels.x * fill.axis_u.w;
+    return fill.origin.xyz + fill.axis_u.xyz * u + fill.axis_v.xyz * v;
+}
+
 // The sample's weight at the texel under `frag`: its projected area seen from there (sphere lights).
 fn weight(frag: vec4<f32>) -> f32 {
     if (fill.sphere.w < 0.5) {
         return 1.0;
     }
-    let u = frag.x / fill.centre.w * fill.origin.w;
-    let v = frag.y / fill.texels.x * fill.axis_u.w;
-    let p = fill.origin.xyz + fill.axis_u.xyz * u + fill.axis_v.xyz * v;
-    return max(dot(fill.sphere.xyz, normalize(p - fill.centre.xyz)), 0.0);
+    return max(dot(fill.sphere.xyz, normalize(texel_point(frag) - fill.centre.xyz)), 0.0);
 }
 
 // Texels no caster covered: lit (unless the sample is behind the plane).
@@ -73,4 +79,47 @@ fn lit_fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
 @fragment
 fn shadowed_fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     return vec4<f32>(0.0, weight(frag), 0.0, 0.0);
+}
+
+// Smoothie fill (Chan & Durand 2003; Toromanoff 2005 alg. E in light maps): the casters' smoothies
+// drawn through the centre's frustum; each texel keeps the least visibility of the smoothies over
+// it (blend min), the smoothie's distance from the silhouette over the outer penumbra's width
+// between the smoothie (blocker) and this texel (receiver). The umbra is the hard stencil's.
+struct SmoothieOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) offset: f32,
+};
+
+@vertex
+fn smoothie_vs(@location(0) v: vec4<f32>) -> SmoothieOut {
+    var out: SmoothieOut;
+    out.clip = fill.projection * vec4<f32>(v.xyz, 1.0);
+    out.world = v.xyz;
+    out.offset = v.w;
+    return out;
+}
+
+@fragment
+fn smoothie_fs(in: SmoothieOut) -> @location(0) vec4<f32> {
+    let p = texel_point(in.clip);
+    var width = 0.0;
+    if (fill.texels.z > 0.5) {
+        // The sun: tan θ times the smoothie's distance from the receiver along the light.
+        let n = cross(fill.axis_u.xyz, fill.axis_v.xyz);
+        let gap = dot(in.world - p, n) / max(dot(n, fill.sphere.xyz), 1.0e-6);
+        width = fill.texels.y * max(gap, 0.0);
+    } else {
+        // R·(1 − b/r) for a blocker at b and a receiver at r from the light's centre.
+        let b = distance(in.world, fill.centre.xyz);
+        let r = distance(p, fill.centre.xyz);
+        width = fill.texels.y * max(r - b, 0.0) / max(r, 1.0e-9);
+    }
+    return vec4<f32>(clamp(in.offset / max(width, 1.0e-9), 0.0, 1.0), 1.0, 0.0, 0.0);
+}
+
+// The hard umbra (stencil marked by the casters): no light.
+@fragment
+fn umbra_fs() -> @location(0) vec4<f32> {
+    return vec4<f32>(0.0, 1.0, 0.0, 0.0);
 }

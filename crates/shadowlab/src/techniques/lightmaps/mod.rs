@@ -10,7 +10,11 @@
 //! sun's direction for directional samples), so each covered pixel is a texel in that sample's
 //! shadow (Toromanoff alg. F–G); the samples' weights add up per texel (sphere lights: each
 //! sample's projected area, as `sampled` does). `fill=sampled` takes `samples` points of the
-//! emitter (`pattern`: grid, stratified, Toromanoff's rings); `fill=hard` one at its centre.
+//! emitter (`pattern`: grid, stratified, Toromanoff's rings); `fill=hard` one at its centre;
+//! `fill=smoothies` the centre's hard shadow with the casters' smoothies drawn through the same
+//! frustum (Chan & Durand 2003; Toromanoff alg. E): each texel keeps the least visibility of the
+//! smoothies over it, their distance from the silhouette over the outer penumbra's width between
+//! smoothie and receiver.
 //!
 //! The maps are view-independent: once filled they cost one lookup per pixel however the camera
 //! moves, and each (light, receiver) map is a cached item of the live engine (its signature: the
@@ -50,8 +54,8 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::choice(
             "fill",
             "sampled",
-            &["sampled", "hard"],
-            "light maps from emitter samples, or the centre only",
+            &["sampled", "hard", "smoothies"],
+            "light maps from emitter samples, the centre only, or the centre with smoothies",
         ),
         ParamDef::int("samples", 64, 1, 1024, "emitter samples per light map (fill=sampled)"),
         PATTERN,
@@ -197,7 +201,8 @@ fn fill_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     })
 }
 
-/// The fill pipelines: casters into the stencil; the lit and the shadowed texels' sums.
+/// The fill pipelines: casters into the stencil (`occluder`); the lit and the shadowed texels'
+/// sums (`lit`, `shadowed`: additive); smoothies and the umbra (`smoothie`, `umbra`: least value).
 fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
     shared.render_pipeline(&format!("lightmaps {which}"), || {
         let device = &shared.gpu.device;
@@ -207,31 +212,49 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
             bind_group_layouts: &[Some(&fill_layout(shared))],
             immediate_size: 0,
         });
-        let occluder = which == "occluder";
         let face = |compare, pass_op| wgpu::StencilFaceState {
             compare,
             fail_op: wgpu::StencilOperation::Keep,
             depth_fail_op: wgpu::StencilOperation::Keep,
             pass_op,
         };
-        let stencil_face = if occluder {
-            face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Replace)
-        } else {
-            face(wgpu::CompareFunction::Equal, wgpu::StencilOperation::Keep)
+        let stencil_face = match which {
+            "occluder" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Replace),
+            "smoothie" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Keep),
+            _ => face(wgpu::CompareFunction::Equal, wgpu::StencilOperation::Keep),
         };
-        let add = wgpu::BlendComponent {
+        let component = |operation| wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
-            operation: wgpu::BlendOperation::Add,
+            operation,
         };
-        let buffers: &[Option<wgpu::VertexBufferLayout<'_>>] =
-            if occluder { &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)] } else { &[] };
+        let blend = match which {
+            "occluder" => None,
+            "smoothie" | "umbra" => Some(wgpu::BlendState {
+                color: component(wgpu::BlendOperation::Min),
+                alpha: component(wgpu::BlendOperation::Min),
+            }),
+            _ => Some(wgpu::BlendState {
+                color: component(wgpu::BlendOperation::Add),
+                alpha: component(wgpu::BlendOperation::Add),
+            }),
+        };
+        const SMOOTHIE_LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x4],
+        };
+        let (vertex_entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) = match which {
+            "occluder" => ("occluder_vs", &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)]),
+            "smoothie" => ("smoothie_vs", &[Some(SMOOTHIE_LAYOUT)]),
+            _ => ("screen_vs", &[]),
+        };
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(which),
             layout: Some(&layout),
             vertex: wgpu::VertexState {
                 module: &module,
-                entry_point: Some(if occluder { "occluder_vs" } else { "screen_vs" }),
+                entry_point: Some(vertex_entry),
                 compilation_options: Default::default(),
                 buffers,
             },
@@ -249,19 +272,28 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
                 entry_point: Some(match which {
                     "occluder" => "occluder_fs",
                     "lit" => "lit_fs",
+                    "smoothie" => "smoothie_fs",
+                    "umbra" => "umbra_fs",
                     _ => "shadowed_fs",
                 }),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: MAP_FORMAT,
-                    blend: (!occluder).then_some(wgpu::BlendState { color: add, alpha: add }),
-                    write_mask: if occluder { wgpu::ColorWrites::empty() } else { wgpu::ColorWrites::ALL },
+                    blend,
+                    write_mask: if which == "occluder" { wgpu::ColorWrites::empty() } else { wgpu::ColorWrites::ALL },
                 })],
             }),
             multiview_mask: None,
             cache: None,
         })
     })
+}
+
+/// The casters' smoothies for one light, per instance, in one vertex buffer.
+struct SmoothieSet {
+    buffer: wgpu::Buffer,
+    /// Per instance index (in the scene): its vertex range.
+    ranges: Vec<(usize, std::ops::Range<u32>)>,
 }
 
 impl Lightmaps {
@@ -274,7 +306,7 @@ impl Lightmaps {
     }
 
     fn emitter_samples(&self, light: &Light) -> Vec<EmitterPoint> {
-        if self.params.choice("fill") == "hard" || light.is_hard() {
+        if self.params.choice("fill") != "sampled" || light.is_hard() {
             let mut centre = light.clone();
             centre.scale_emitter(0.0);
             return emitter_points_with(&centre, 1, SamplePattern::Grid);
@@ -515,10 +547,16 @@ impl ShadowTechnique for Lightmaps {
             self.params.int("samples") as f64,
             self.params.float("texel"),
             self.params.int("max_texels") as f64,
-            if self.params.choice("fill") == "hard" { 1.0 } else { 0.0 },
+            match self.params.choice("fill") {
+                "hard" => 1.0,
+                "smoothies" => 2.0,
+                _ => 0.0,
+            },
             SamplePattern::parse(self.params.choice("pattern")).map_or(0.0, |p| p as u8 as f64),
         ]);
         let mut uniforms = Vec::with_capacity(state.patches.len());
+        let mut smoothies: Option<SmoothieSet> = None;
+        let smoothie_fill = self.params.choice("fill") == "smoothies" && !ctx.light.is_hard();
         self.filled = 0;
         self.draws = 0;
         for (k, patch) in state.patches.iter().enumerate() {
@@ -558,7 +596,10 @@ impl ShadowTechnique for Lightmaps {
                 ctx.cache.work.reused += 1;
                 continue;
             }
-            self.draws += fill_patch(ctx, state, k, patch, &samples, reach, receiver.id);
+            if smoothie_fill && smoothies.is_none() {
+                smoothies = Some(smoothie_set(ctx));
+            }
+            self.draws += fill_patch(ctx, state, k, patch, &samples, reach, receiver.id, smoothies.as_ref());
             ctx.cache.commit(key, signature);
             ctx.cache.work.lightmap_samples += samples.len() as u32;
             self.filled += 1;
@@ -610,10 +651,13 @@ fn fill_patch(
     samples: &[EmitterPoint],
     reach: f32,
     skip: crate::live::InstanceId,
+    smoothies: Option<&SmoothieSet>,
 ) -> u32 {
     let shared = ctx.shared;
     let (tw, th) = state.texels[k];
     let centre = ctx.light.position().unwrap_or(Vec3::ZERO);
+    let directional = ctx.light.direction().filter(|_| ctx.light.position().is_none());
+    let emitter = super::smoothies::emitter_size(ctx.light);
     let skip_slot = ctx.live.instance_index(skip).and_then(|i| ctx.gpu_scene.slots.get(i).copied()).unwrap_or(u32::MAX);
     let (occluder, lit, shadowed) =
         (fill_pipeline(shared, "occluder"), fill_pipeline(shared, "lit"), fill_pipeline(shared, "shadowed"));
@@ -625,12 +669,22 @@ fn fill_patch(
             origin: patch.origin.extend(patch.width),
             axis_u: patch.axis_u.extend(patch.height),
             axis_v: patch.axis_v.extend(if projection.is_none() { 1.0 } else { 0.0 }),
-            sphere: s.sphere_normal.map_or(Vec4::ZERO, |n| n.extend(1.0)),
+            sphere: match (s.sphere_normal, directional) {
+                (Some(n), _) => n.extend(1.0),
+                (None, Some(d)) => (-d).normalize_or(Vec3::Y).extend(0.0),
+                (None, None) => Vec4::ZERO,
+            },
             centre: centre.extend(tw as f32),
-            texels: Vec4::new(th as f32, 0.0, 0.0, 0.0),
+            texels: Vec4::new(th as f32, emitter, if directional.is_some() { 1.0 } else { 0.0 }, 0.0),
         };
         let slot = (k * samples.len() + j) as u64 * state.fill_stride;
         ctx.gpu.queue.write_buffer(&state.fills, slot, bytemuck::bytes_of(&u));
+        // Sums start at 0; the smoothie fill's least visibility starts at (1, 1): lit.
+        let clear = match (smoothies, projection) {
+            (Some(_), Some(_)) => wgpu::Color { r: 1.0, g: 1.0, b: 0.0, a: 0.0 },
+            (Some(_), None) => wgpu::Color { r: 0.0, g: 1.0, b: 0.0, a: 0.0 },
+            (None, _) => wgpu::Color::TRANSPARENT,
+        };
         let timestamps = ctx.timer.render_pass(&ctx.gpu.device, PassKind::Shadow);
         let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("light map sample"),
@@ -639,7 +693,7 @@ fn fill_patch(
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: if j == 0 { wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT) } else { wgpu::LoadOp::Load },
+                    load: if j == 0 { wgpu::LoadOp::Clear(clear) } else { wgpu::LoadOp::Load },
                     store: wgpu::StoreOp::Store,
                 },
             })],
@@ -661,6 +715,24 @@ fn fill_patch(
             ctx.gpu_scene.bind(&mut pass);
             draws += ctx.gpu_scene.draw_except(&mut pass, ctx.gpu_scene.casters(PERMANENT), skip_slot);
         }
+        if let Some(set) = smoothies {
+            // The smoothies (outside the receiver), then the umbra, each keeping the least value.
+            if projection.is_some() {
+                pass.set_pipeline(&fill_pipeline(shared, "smoothie"));
+                pass.set_vertex_buffer(0, set.buffer.slice(..));
+                for (instance, range) in &set.ranges {
+                    if Some(*instance) != ctx.live.instance_index(skip) && !range.is_empty() {
+                        pass.draw(range.clone(), 0..1);
+                        draws += 1;
+                    }
+                }
+                pass.set_pipeline(&fill_pipeline(shared, "umbra"));
+                pass.set_stencil_reference(1);
+                pass.draw(0..3, 0..1);
+                draws += 1;
+            }
+            continue;
+        }
         pass.set_pipeline(&lit);
         pass.set_stencil_reference(0);
         pass.draw(0..3, 0..1);
@@ -670,4 +742,28 @@ fn fill_patch(
         draws += 2;
     }
     draws
+}
+
+/// The smoothies of every permanent caster for the context's light, uploaded once for the frame.
+fn smoothie_set(ctx: &FrameContext<'_>) -> SmoothieSet {
+    let topologies = super::smoothies::topologies(ctx.shared, ctx.scene);
+    let emitter = super::smoothies::emitter_size(ctx.light);
+    let per_instance = super::smoothies::instance_smoothies(ctx.scene, &topologies, ctx.light, emitter);
+    let mut vertices: Vec<[f32; 4]> = Vec::new();
+    let mut ranges = Vec::with_capacity(per_instance.len());
+    for (instance, v) in per_instance {
+        let start = vertices.len() as u32;
+        vertices.extend(v);
+        ranges.push((instance, start..vertices.len() as u32));
+    }
+    vertices.resize(vertices.len().max(3), [0.0; 4]);
+    let buffer = wgpu::util::DeviceExt::create_buffer_init(
+        &ctx.gpu.device,
+        &wgpu::util::BufferInitDescriptor {
+            label: Some("light map smoothies"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        },
+    );
+    SmoothieSet { buffer, ranges }
 }

@@ -224,6 +224,22 @@ impl Scene {
         shift
     }
 
+    /// Moves every instance, light and view by `by` in its own `f32` coordinates, as a file placing
+    /// the scene there would (each coordinate rounded to `f32`; compare [`Scene::recentre`], which
+    /// moves the origin instead and keeps the coordinates small).
+    pub fn translate(&mut self, by: Vec3) {
+        for i in &mut self.instances {
+            i.transform.translation += glam::Vec3A::from(by);
+        }
+        for l in &mut self.lights {
+            l.translate(|p| p + by);
+        }
+        for v in self.views.iter_mut().chain(self.paths.iter_mut().flat_map(|p| p.keys.iter_mut())) {
+            v.position += by;
+            v.target += by;
+        }
+    }
+
     /// A world position (in `f64`, e.g. from an application's large-world coordinates) in this
     /// scene's local frame.
     pub fn to_local(&self, world: DVec3) -> Vec3 {

@@ -139,16 +139,7 @@ fn dyadic_scene() -> Scene {
 /// The scene moved by `t` the way a file would place it: every coordinate rounded to `f32`.
 fn translated(scene: &Scene, t: Vec3) -> Scene {
     let mut s = scene.clone();
-    for i in &mut s.instances {
-        i.transform.translation += glam::Vec3A::from(t);
-    }
-    for l in &mut s.lights {
-        l.translate(|p| p + t);
-    }
-    for v in &mut s.views {
-        v.position += t;
-        v.target += t;
-    }
+    s.translate(t);
     s
 }
 

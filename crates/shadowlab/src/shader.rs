@@ -8,6 +8,7 @@
 /// The shared modules, by the name used in `#include` lines.
 const SHARED: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("shaders/common.wgsl")),
+    ("instance.wgsl", include_str!("shaders/instance.wgsl")),
     ("lights.wgsl", include_str!("shaders/lights.wgsl")),
     ("shadowmap.wgsl", include_str!("shaders/shadowmap.wgsl")),
     ("resolve.wgsl", include_str!("shaders/resolve.wgsl")),

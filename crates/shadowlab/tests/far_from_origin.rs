@@ -12,18 +12,10 @@ use shadowlab_core::{LightId, Scene, load_scene};
 
 use common::{gpu, reference, render};
 
+/// The scene moved by `t` the way a file would place it: every coordinate rounded to `f32`.
 fn translated(scene: &Scene, t: Vec3) -> Scene {
     let mut s = scene.clone();
-    for i in &mut s.instances {
-        i.transform.translation += glam::Vec3A::from(t);
-    }
-    for l in &mut s.lights {
-        l.translate(|p| p + t);
-    }
-    for v in &mut s.views {
-        v.position += t;
-        v.target += t;
-    }
+    s.translate(t);
     s
 }
 

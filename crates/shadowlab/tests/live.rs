@@ -61,6 +61,15 @@ impl Live {
         self.renderer.shadows.live().find_instance(name).unwrap_or_else(|| panic!("no instance {name}"))
     }
 
+    /// Adds a copy of the instance `name`, moved by `by`.
+    fn add_copy(&mut self, name: &str, by: Vec3) -> shadowlab::live::Applied {
+        let id = self.id(name);
+        let copy = self.renderer.shadows.live().instance(id).unwrap().clone();
+        let name = format!("second {name}");
+        let instance = shadowlab_core::Instance { name, transform: moved(copy.transform, by), ..copy };
+        self.renderer.apply(Edit::AddInstance(Box::new(instance))).unwrap()
+    }
+
     /// Renders a frame and checks it against a fresh engine; returns the frame's work.
     fn check(&mut self, what: &str) -> Work {
         let work = self.frame();
@@ -153,16 +162,7 @@ fn every_edit_leaves_the_live_engine_equal_to_a_fresh_one() {
         live.renderer.apply(Edit::Mobility { instance: dynamic, mobility: Mobility::Static }).unwrap();
         live.check("released");
 
-        let cup = live.id("cup");
-        let copy = live.renderer.scene().instances[live.renderer.shadows.live().instance_index(cup).unwrap()].clone();
-        let added = live
-            .renderer
-            .apply(Edit::AddInstance(Box::new(shadowlab_core::Instance {
-                name: "second cup".into(),
-                transform: moved(copy.transform, Vec3::new(0.25, 0.0, 0.0)),
-                ..copy
-            })))
-            .unwrap();
+        let added = live.add_copy("cup", Vec3::new(0.25, 0.0, 0.0));
         live.check("cup added");
         live.renderer.apply(Edit::RemoveInstance(added.instance.unwrap())).unwrap();
         live.check("cup removed");
@@ -261,16 +261,7 @@ fn volumes_re_extract_only_the_objects_and_lights_that_changed() {
     assert_eq!(w.volume_objects, casters * samples[0], "moving a light extracts {w:?}");
 
     // Slots follow instances: an added caster takes one, a removed one frees its own.
-    let cup = live.id("cup");
-    let copy = live.renderer.scene().instances[live.renderer.shadows.live().instance_index(cup).unwrap()].clone();
-    let added = live
-        .renderer
-        .apply(Edit::AddInstance(Box::new(shadowlab_core::Instance {
-            name: "second cup".into(),
-            transform: moved(copy.transform, Vec3::new(0.25, 0.0, 0.0)),
-            ..copy
-        })))
-        .unwrap();
+    let added = live.add_copy("cup", Vec3::new(0.25, 0.0, 0.0));
     let w = live.check("cup added");
     assert_eq!(w.volume_objects, all_samples, "adding one object extracts {w:?}");
     live.renderer.apply(Edit::RemoveInstance(chair)).unwrap();

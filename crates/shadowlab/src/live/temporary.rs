@@ -15,7 +15,7 @@ use shadowlab_core::lightspace::{ShadowView, light_frusta};
 use shadowlab_core::{Aabb, Mobility};
 
 use super::scene::LiveScene;
-use crate::context::{Shared, uniform_entry};
+use crate::context::{Shared, UNFILTERED, texture_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
 use crate::technique::{FrameContext, dispatch_resolve};
@@ -140,16 +140,7 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("temporary"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                texture_entry(0, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
                 uniform_entry(1, wgpu::ShaderStages::COMPUTE),
             ],
         })

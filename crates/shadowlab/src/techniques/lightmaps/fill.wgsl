@@ -5,6 +5,7 @@
 // (G) and to the lit sum (R) where no caster was drawn: V = R / G.
 
 // #include "common.wgsl"
+// #include "instance.wgsl"
 
 struct Fill {
     // Clip = projection × world: the sample's frustum onto the patch rectangle.
@@ -27,19 +28,9 @@ struct Fill {
 
 @group(0) @binding(0) var<uniform> fill: Fill;
 
-struct VertexIn {
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) model0: vec4<f32>,
-    @location(3) model1: vec4<f32>,
-    @location(4) model2: vec4<f32>,
-    @location(5) model3: vec4<f32>,
-};
-
 @vertex
-fn occluder_vs(v: VertexIn) -> @builtin(position) vec4<f32> {
-    let model = mat4x4<f32>(v.model0, v.model1, v.model2, v.model3);
-    return fill.projection * (model * vec4<f32>(v.position, 1.0));
+fn occluder_vs(v: InstancedVertex) -> @builtin(position) vec4<f32> {
+    return fill.projection * instance_world(v);
 }
 
 @fragment

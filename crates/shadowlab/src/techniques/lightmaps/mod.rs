@@ -30,7 +30,7 @@ use shadowlab_core::sampling::{EmitterPoint, EmitterSample, SamplePattern, emitt
 use shadowlab_core::{Aabb, Light, ParamSet};
 
 use super::sampled::PATTERN;
-use crate::context::{Shared, storage_entry, uniform_entry};
+use crate::context::{Shared, storage_entry, texture_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::gpu_scene::{INSTANCE_LAYOUT, VERTEX_LAYOUT};
 use crate::live::validity::{Region, hash_values, lightmap_signature};
@@ -162,16 +162,12 @@ fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
             entries: &[
                 uniform_entry(0, c),
                 storage_entry(1, c, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: c,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                texture_entry(
+                    2,
+                    c,
+                    wgpu::TextureSampleType::Float { filterable: true },
+                    wgpu::TextureViewDimension::D2Array,
+                ),
                 wgpu::BindGroupLayoutEntry {
                     binding: 3,
                     visibility: c,

@@ -673,18 +673,7 @@ impl Volumes {
         let n = self.samples.len() as u64;
         let (w, h) = (ctx.surface.width, ctx.surface.height);
         let texture = |label, format, usage| {
-            device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default())
+            crate::util::texture_2d(device, label, format, (w, h), usage).create_view(&Default::default())
         };
         let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let depth_stencil_view = texture("volumes depth-stencil", depth_stencil_format(shared), attachment);

@@ -82,6 +82,16 @@ impl LightMap {
         Ok(self.rendered)
     }
 
+    /// Whether the maps have a complete state to show.
+    pub fn shown(&self) -> bool {
+        self.maps.as_ref().is_some_and(MapViews::shown)
+    }
+
+    /// Whether the maps shown hold the current state.
+    pub fn current(&self) -> bool {
+        self.maps.as_ref().is_some_and(MapViews::current)
+    }
+
     /// Group 1 of `shaders/maplookup.wgsl` (after the first update).
     pub fn group(&self) -> Option<&wgpu::BindGroup> {
         self.group.as_ref().map(|g| &g.0)

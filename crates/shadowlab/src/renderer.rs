@@ -215,7 +215,21 @@ impl Renderer {
             .timer
             .read(&self.gpu)
             .map_err(|e| TechniqueError::Failed { id: "frame".into(), message: e.to_string() })?;
+        // The scheduler learns from what the frame cost: its fills (the shadow passes) and the rest.
+        match gpu {
+            Some(t) => {
+                let fill = t.get(PassKind::Shadow);
+                self.shadows.observe(&work, fill, t.total() - fill);
+            }
+            None => self.shadows.observe(&work, f64::NAN, cpu_ms),
+        }
         Ok(FrameReport { gpu, cpu_ms, work })
+    }
+
+    /// Spreads the shadows' cache fills over frames to keep to `target_ms` (see
+    /// [`Shadows::set_target_ms`]).
+    pub fn set_target_ms(&mut self, target_ms: Option<f64>) {
+        self.shadows.set_target_ms(target_ms);
     }
 
     fn gbuffer_pass(&mut self, encoder: &mut wgpu::CommandEncoder) {

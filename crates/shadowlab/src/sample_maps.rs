@@ -264,6 +264,23 @@ impl SampleMaps {
         Ok(self.rendered)
     }
 
+    /// Whether every sample's maps have a complete state to show (shared layers always have: they
+    /// are rendered in the frame that reads them).
+    pub fn shown(&self) -> bool {
+        match &self.storage {
+            SampleStorage::Cached(m) => m.shown(),
+            SampleStorage::Shared(_) => true,
+        }
+    }
+
+    /// Whether the maps shown hold the current state.
+    pub fn current(&self) -> bool {
+        match &self.storage {
+            SampleStorage::Cached(m) => m.current(),
+            SampleStorage::Shared(_) => true,
+        }
+    }
+
     /// Drops the cached samples' records (before the set is replaced).
     pub fn forget_items(&self, ctx: &mut FrameContext<'_>) {
         if let SampleStorage::Cached(maps) = &self.storage {

@@ -254,7 +254,17 @@ impl ShadowMapArray {
         );
     }
 
-    /// Moves view `slot`'s lookups to texture `layer` (its view must have been stored).
+    /// Stores the matrices passes render view slots `first..` with (not what lookups read: see
+    /// [`ShadowMapArray::set_view_layer`]).
+    pub fn set_render_views(&self, queue: &wgpu::Queue, first: u32, views: &[ShadowView]) {
+        for (i, v) in views.iter().enumerate() {
+            let slot = u64::from(first) + i as u64;
+            queue.write_buffer(&self.matrices, slot * self.stride, bytemuck::bytes_of(&v.view_projection));
+        }
+    }
+
+    /// What lookups of view `slot` read: `view` (the one its map was rendered with) in texture
+    /// `layer`.
     pub fn set_view_layer(&self, queue: &wgpu::Queue, slot: u32, view: &ShadowView, layer: u32) {
         let u = ShadowViewUniform::new(view, layer);
         queue.write_buffer(

@@ -14,6 +14,7 @@ use crate::context::Shared;
 use crate::frame::{LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
+use crate::live::scheduler::{Budget, CostModel};
 use crate::live::temporary::TemporaryShadows;
 use crate::live::validity::screen_signature;
 use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Signature, Work};
@@ -21,6 +22,10 @@ use crate::registry::TechniqueSpec;
 use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueStats};
 use crate::timing::GpuTimer;
 use crate::util;
+
+/// The share of the target frame time kept free of fills (Toromanoff's alg. 15 leaves the margin
+/// open): a tenth, against the prediction's errors.
+const BUDGET_MARGIN: f64 = 0.1;
 
 /// One light's shadowing: its technique and its visibility layer.
 pub(crate) struct LightShadow {
@@ -39,6 +44,12 @@ pub(crate) struct LightShadow {
     /// The temporary (dragged) objects' maps for this light: each light its own, since every
     /// light's views are written before the frame's commands run.
     temporary: TemporaryShadows,
+    /// What the light shows while its technique has nothing complete: no shadow.
+    unshadowed: Box<dyn ShadowTechnique>,
+    /// The quality level shown in the last frame: 0 no shadow, 1 the technique's base, higher its
+    /// upgrades (see [`ShadowTechnique::progress`]); and the emitter samples behind it.
+    level: u32,
+    samples: u32,
 }
 
 /// Shadows for every light of a scene over one surface: what an application embeds.
@@ -48,6 +59,14 @@ pub struct Shadows {
     gpu_scene: GpuScene,
     pub(crate) lights: Vec<LightShadow>,
     cache: ShadowCache,
+    /// Predicted costs of units of work, from measured frames.
+    costs: CostModel,
+    /// The frame time the scheduler keeps to (`None`: every fill in the frame that needs it).
+    target_ms: Option<f64>,
+    /// Predicted render time of a frame without fills (ms): the part of the target work cannot use.
+    render_ms: Option<f64>,
+    /// Costs and render time are scripted: measurements leave them.
+    scripted: bool,
     frame_index: u64,
     /// Instances changed since the GPU copy was written.
     instances_dirty: bool,
@@ -65,6 +84,10 @@ impl Shadows {
             gpu_scene,
             lights: Vec::new(),
             cache: ShadowCache::default(),
+            costs: CostModel::default(),
+            target_ms: None,
+            render_ms: None,
+            scripted: false,
             frame_index: 0,
             instances_dirty: false,
             size: (0, 0),
@@ -138,6 +161,11 @@ impl Shadows {
             uniform_version,
             resolved: None,
             temporary: TemporaryShadows::new(&self.shared),
+            unshadowed: TechniqueSpec::parse("none", &[])
+                .and_then(|none| none.create(&self.shared, l))
+                .expect("`none` supports every light"),
+            level: 0,
+            samples: 0,
         });
         self.lights.sort_by_key(|s| s.light);
         self.size = (width, height);
@@ -174,6 +202,57 @@ impl Shadows {
         }
         self.size = (width, height);
         Ok(())
+    }
+
+    /// Spreads cache fills over frames so that a frame keeps to `target_ms` (Toromanoff alg. 13–15):
+    /// each frame's fills get the target minus the predicted render time minus a margin, and a light
+    /// shows its last complete state until its new one is complete (unshadowed until the first).
+    /// `None` (the default) fills everything in the frame that needs it.
+    pub fn set_target_ms(&mut self, target_ms: Option<f64>) {
+        self.target_ms = target_ms.filter(|t| t.is_finite() && *t > 0.0);
+    }
+
+    pub fn target_ms(&self) -> Option<f64> {
+        self.target_ms
+    }
+
+    /// Takes in a rendered frame's GPU times and work (what [`Shadows::record`] returned): the
+    /// cost model behind the budget learns from them. `fill_ms` is the time of the fills (the
+    /// shadow passes), `render_ms` that of the rest of the frame.
+    pub fn observe(&mut self, work: &Work, fill_ms: f64, render_ms: f64) {
+        use crate::live::scheduler::UnitKind;
+        let units = [
+            (UnitKind::MapView, work.map_views),
+            (UnitKind::LightMapSample, work.lightmap_samples),
+            (UnitKind::VolumeObject, work.volume_objects),
+        ];
+        if units.iter().any(|u| u.1 > 0) {
+            self.costs.observe_frame(&units, fill_ms);
+        }
+        if render_ms.is_finite() && render_ms >= 0.0 && !self.scripted {
+            let r = self.render_ms.get_or_insert(render_ms);
+            *r += 0.25 * (render_ms - *r);
+        }
+    }
+
+    /// The costs the scheduler predicts with.
+    pub fn costs(&self) -> &CostModel {
+        &self.costs
+    }
+
+    /// Replaces the cost model and the predicted render time (a scripted clock: with
+    /// [`CostModel::scripted`] measurements change neither).
+    pub fn script_costs(&mut self, costs: CostModel, render_ms: f64) {
+        self.costs = costs;
+        self.render_ms = Some(render_ms);
+        self.scripted = true;
+    }
+
+    /// Each shadowed light's level in the last frame: 0 unshadowed (nothing complete yet), 1 its
+    /// technique's base, higher its upgrades; whether that shows the current state; and the emitter
+    /// samples behind it (0 where that means nothing).
+    pub fn levels(&self) -> Vec<(LightId, u32, bool, u32)> {
+        self.lights.iter().map(|s| (s.light, s.level, s.level > 0 && s.technique.current(), s.samples)).collect()
     }
 
     /// Keeps shadow items across frames (the default), or rebuilds every item every frame.
@@ -235,6 +314,10 @@ impl Shadows {
                 s.uniform_version = state.colour_version;
             }
         }
+        let mut budget = match self.target_ms {
+            Some(target) => Budget::for_frame(target, self.render_ms.unwrap_or(0.0), BUDGET_MARGIN),
+            None => Budget::unlimited(),
+        };
         for s in &mut self.lights {
             let Some(light) = self.live.light(s.light) else { continue };
             let mut ctx = FrameContext {
@@ -252,6 +335,8 @@ impl Shadows {
                 live: &self.live,
                 cache: &mut self.cache,
                 owner: s.owner,
+                budget: &mut budget,
+                costs: &self.costs,
             };
             let before = ctx.cache.work;
             s.technique.prepare(&mut ctx)?;
@@ -266,17 +351,26 @@ impl Shadows {
                 continue;
             }
             ctx.cache.work.resolves += 1;
-            s.resolved = Some(now);
+            // Nothing complete to show yet (a fill spread over frames from nothing): unshadowed.
+            let shown = s.technique.shown();
+            s.level = if shown { s.technique.progress().0 } else { 0 };
+            s.samples = if shown { s.technique.progress().1 } else { 0 };
+            s.resolved = if shown { Some(now) } else { None };
+            let technique: &mut dyn ShadowTechnique = if shown { s.technique.as_mut() } else { s.unshadowed.as_mut() };
             if temporary {
                 let raw = s.temporary.raw_layer(&self.shared, surface.width, surface.height);
-                s.technique.resolve(&mut ctx, raw);
+                technique.resolve(&mut ctx, raw);
                 s.temporary.apply(&mut ctx, &s.layer);
             } else {
-                s.technique.resolve(&mut ctx, &s.layer);
+                technique.resolve(&mut ctx, &s.layer);
             }
         }
+        let mut work = self.cache.begin_frame();
+        work.deferred = budget.deferred;
+        work.budget_ms = if budget.is_unlimited() { f64::INFINITY } else { budget.limit_ms() };
+        work.planned_ms = budget.spent_ms();
         self.frame_index += 1;
-        Ok(self.cache.begin_frame())
+        Ok(work)
     }
 
     /// Memory, passes and draws of all techniques together.

@@ -15,6 +15,7 @@ use crate::context::Shared;
 use crate::frame::{SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
+use crate::live::scheduler::{Budget, CostModel};
 use crate::live::{LiveScene, ShadowCache};
 use crate::timing::GpuTimer;
 
@@ -71,6 +72,10 @@ pub struct FrameContext<'a> {
     pub cache: &'a mut ShadowCache,
     /// The technique instance's owner id in the cache.
     pub owner: u32,
+    /// What this frame may still spend on cache fills (unlimited unless a target frame time is set).
+    pub budget: &'a mut Budget,
+    /// Predicted costs of units of work.
+    pub costs: &'a CostModel,
 }
 
 /// The maps a technique looks up, for the analysis overlays (`shadowlab render --overlay`).
@@ -91,6 +96,24 @@ pub trait ShadowTechnique: Send {
     /// Writes V for every pixel of the surface into `out`.
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer);
     fn stats(&self) -> TechniqueStats;
+    /// Whether the technique has a complete state to show (its maps, volumes and light maps all
+    /// filled for some state of the scene). While filling is spread over frames from nothing, it
+    /// has not, and the light is shown unshadowed (Toromanoff's all-or-nothing rule).
+    fn shown(&self) -> bool {
+        true
+    }
+
+    /// Whether what it shows is the current state (no fill pending).
+    fn current(&self) -> bool {
+        true
+    }
+
+    /// The rung it shows on its own quality ladder (1: its base; higher: upgrades, as light maps
+    /// with more samples) and the emitter samples behind it (0 where that means nothing).
+    fn progress(&self) -> (u32, u32) {
+        (1, 0)
+    }
+
     /// The maps behind the last frame, for techniques that shade each pixel from one map (hard,
     /// pcf, cascaded); `None` for the others.
     fn analysis(&self) -> Option<MapAnalysis<'_>> {

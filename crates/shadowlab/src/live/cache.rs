@@ -27,7 +27,7 @@ pub struct ItemKey {
 }
 
 /// Work done in one frame, by what was (re)built: the `work` of `timeline.json`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Work {
     /// Map views rendered (static layers, composite layers, uncached views).
     pub map_views: u32,
@@ -44,11 +44,16 @@ pub struct Work {
     /// Visibility layers written (a light whose maps, scene and surface did not change keeps its
     /// layer of the last frame).
     pub resolves: u32,
+    /// Units left for later frames by the budget.
+    pub deferred: u32,
+    /// The frame's budget for fills (infinite without a target frame time) and what it planned.
+    pub budget_ms: f64,
+    pub planned_ms: f64,
 }
 
 impl Work {
     /// `(name, count)` of every counter, for reports.
-    pub fn counts(&self) -> [(&'static str, u32); 7] {
+    pub fn counts(&self) -> [(&'static str, u32); 8] {
         [
             ("map_views", self.map_views),
             ("composite_views", self.composite_views),
@@ -57,6 +62,7 @@ impl Work {
             ("temporary_views", self.temporary_views),
             ("reused", self.reused),
             ("resolves", self.resolves),
+            ("deferred", self.deferred),
         ]
     }
 

@@ -12,6 +12,7 @@ pub mod cache;
 pub mod edits;
 pub mod maps;
 pub mod scene;
+pub mod scheduler;
 pub mod temporary;
 pub mod validity;
 

@@ -319,6 +319,14 @@ impl ShadowTechnique for Cascaded {
         }
     }
 
+    fn shown(&self) -> bool {
+        self.state.as_ref().is_some_and(|s| s.maps.shown())
+    }
+
+    fn current(&self) -> bool {
+        self.state.as_ref().is_some_and(|s| s.maps.current())
+    }
+
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
         self.state.as_ref().map(|s| MapAnalysis { lookup: &s.lookup, selection: &s.selection_group })
     }

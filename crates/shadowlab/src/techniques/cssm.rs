@@ -382,6 +382,14 @@ impl ShadowTechnique for Cssm {
         self.cascades[0].set.dispatch(ctx, "cssm finish", &self.finish, &group0, 0);
     }
 
+    fn shown(&self) -> bool {
+        !self.cascades.is_empty() && self.cascades.iter().all(|k| k.set.shown())
+    }
+
+    fn current(&self) -> bool {
+        self.cascades.iter().all(|k| k.set.current())
+    }
+
     fn stats(&self) -> TechniqueStats {
         if self.cascades.is_empty() {
             return TechniqueStats::default();

@@ -106,6 +106,14 @@ impl ShadowTechnique for MapLookup {
         }
     }
 
+    fn shown(&self) -> bool {
+        self.map.as_ref().is_some_and(LightMap::shown)
+    }
+
+    fn current(&self) -> bool {
+        self.map.as_ref().is_some_and(LightMap::current)
+    }
+
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
         let m = self.map.as_ref()?;
         Some(MapAnalysis { lookup: m.group()?, selection: &m.selection })

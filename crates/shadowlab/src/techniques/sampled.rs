@@ -219,6 +219,14 @@ impl ShadowTechnique for Sampled {
         set.dispatch(ctx, "sampled finish", &self.finish, &group0, 0);
     }
 
+    fn shown(&self) -> bool {
+        self.state.as_ref().is_some_and(|s| s.set.shown())
+    }
+
+    fn current(&self) -> bool {
+        self.state.as_ref().is_some_and(|s| s.set.current())
+    }
+
     fn stats(&self) -> TechniqueStats {
         match &self.state {
             Some(s) => {

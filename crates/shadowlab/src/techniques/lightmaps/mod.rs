@@ -33,8 +33,9 @@ use super::sampled::PATTERN;
 use crate::context::{Shared, storage_entry, texture_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::gpu_scene::{INSTANCE_LAYOUT, VERTEX_LAYOUT};
+use crate::live::scheduler::UnitKind;
 use crate::live::validity::{Region, hash_values, lightmap_signature};
-use crate::live::{ItemKey, ItemKind};
+use crate::live::{ItemKey, ItemKind, Signature};
 use crate::shadowmap::PERMANENT;
 use crate::technique::{
     Compose, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
@@ -140,13 +141,26 @@ struct State {
     texels: Vec<(u32, u32)>,
     /// The cache's set id of these textures.
     set: u32,
-    /// The light maps, one layer per patch (the views below keep it alive; held for clarity).
-    _maps: wgpu::Texture,
+    /// The light maps shown, one layer per patch (what lookups read).
+    maps: wgpu::Texture,
     layer_views: Vec<wgpu::TextureView>,
+    /// Per patch, the light maps being accumulated over frames (a fill spread by the budget), made
+    /// on first need; shown once every stale patch has reached a rung of the sample ladder.
+    back: Option<(wgpu::Texture, Vec<wgpu::TextureView>)>,
+    /// Per patch: samples in its back layer, and the state they are for.
+    accumulated: Vec<u32>,
+    back_signature: Vec<Option<Signature>>,
+    /// Per patch: samples its shown layer holds (0: nothing yet), the state they are for, and
+    /// whether that is the current state with every sample.
+    front_samples: Vec<u32>,
+    front_signature: Vec<Option<Signature>>,
+    front_current: Vec<bool>,
     size: (u32, u32),
     stencil: wgpu::TextureView,
     fills: wgpu::Buffer,
     fill_stride: u64,
+    /// Fill uniforms reserved per patch (one per sample).
+    samples_per_patch: usize,
     fill_group: wgpu::BindGroup,
     patch_buffer: wgpu::Buffer,
     count_buffer: wgpu::Buffer,
@@ -301,6 +315,8 @@ impl Lightmaps {
         (n(p.width), n(p.height))
     }
 
+    /// The emitter samples, in progressive order: any prefix is spread over the whole emitter, so
+    /// that a fill spread over frames shows a fair estimate at every rung.
     fn emitter_samples(&self, light: &Light) -> Vec<EmitterPoint> {
         if self.params.choice("fill") != "sampled" || light.is_hard() {
             let mut centre = light.clone();
@@ -308,7 +324,8 @@ impl Lightmaps {
             return emitter_points_with(&centre, 1, SamplePattern::Grid);
         }
         let pattern = SamplePattern::parse(self.params.choice("pattern")).unwrap_or(SamplePattern::Grid);
-        emitter_points_with(light, self.params.int("samples") as u32, pattern)
+        let points = emitter_points_with(light, self.params.int("samples") as u32, pattern);
+        progressive_order(points.len()).into_iter().map(|i| points[i]).collect()
     }
 
     fn build(&self, ctx: &mut FrameContext<'_>, patches: Vec<Patch>, samples: usize) -> State {
@@ -324,7 +341,9 @@ impl Lightmaps {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: MAP_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
         let layer_views = (0..patches.len().max(1) as u32)
@@ -407,17 +426,25 @@ impl Lightmaps {
             + fills.size()
             + patch_buffer.size()
             + count_buffer.size();
+        let n = patches.len();
         State {
             epoch: ctx.live.epoch(),
             patches,
             texels,
             set: ctx.cache.new_set(),
-            _maps: maps,
+            accumulated: vec![0; n],
+            back_signature: vec![None; n],
+            front_samples: vec![0; n],
+            front_signature: vec![None; n],
+            front_current: vec![false; n],
+            maps,
             layer_views,
+            back: None,
             size,
             stencil,
             fills,
             fill_stride,
+            samples_per_patch: samples.max(1),
             fill_group,
             patch_buffer,
             count_buffer,
@@ -425,6 +452,75 @@ impl Lightmaps {
             bytes,
         }
     }
+}
+
+impl State {
+    /// Whether every lit receiver has a light map to show.
+    fn maps_shown(&self) -> bool {
+        self.front_samples.iter().zip(&self.front_current).all(|(&n, &current)| n > 0 || current)
+    }
+
+    /// The back layers' views (made on first need, like the shown ones).
+    fn back_layers(&mut self, ctx: &FrameContext<'_>) -> Vec<wgpu::TextureView> {
+        if self.back.is_none() {
+            let texture = ctx.gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("light maps (accumulating)"),
+                size: self.maps.size(),
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: MAP_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let views = (0..self.layer_views.len() as u32)
+                .map(|l| {
+                    texture.create_view(&wgpu::TextureViewDescriptor {
+                        dimension: Some(wgpu::TextureViewDimension::D2),
+                        base_array_layer: l,
+                        array_layer_count: Some(1),
+                        ..Default::default()
+                    })
+                })
+                .collect();
+            self.bytes +=
+                u64::from(self.size.0) * u64::from(self.size.1) * 8 * u64::from(texture.depth_or_array_layers());
+            self.back = Some((texture, views));
+        }
+        self.back.as_ref().expect("made above").1.clone()
+    }
+
+    /// Shows patch `k`'s accumulated layer: copies it over the shown one.
+    fn copy_back(&self, ctx: &mut FrameContext<'_>, k: usize) {
+        let Some((back, _)) = &self.back else { return };
+        let at = |texture| wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d { x: 0, y: 0, z: k as u32 },
+            aspect: wgpu::TextureAspect::All,
+        };
+        let (w, h) = self.size;
+        ctx.encoder.copy_texture_to_texture(
+            at(back),
+            at(&self.maps),
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+    }
+}
+
+/// The rungs of the progressive sample ladder for `n` samples: 4, 16, 64, ... below `n`, and `n`.
+fn sample_ladder(n: u32) -> Vec<u32> {
+    let mut rungs: Vec<u32> = std::iter::successors(Some(4u32), |r| r.checked_mul(4)).take_while(|&r| r < n).collect();
+    rungs.push(n.max(1));
+    rungs
+}
+
+/// An order of `n` samples (in their pattern's order) whose every prefix spreads over all of them:
+/// the bit-reversed permutation (van der Corput), skipping indices past `n`.
+fn progressive_order(n: usize) -> Vec<usize> {
+    let bits = n.next_power_of_two().trailing_zeros();
+    let reverse = |i: usize| if bits == 0 { 0 } else { i.reverse_bits() >> (usize::BITS - bits) };
+    (0..n.next_power_of_two()).map(reverse).filter(|&i| i < n).collect()
 }
 
 /// The clip-space projection of one emitter sample onto a patch: a frustum from the sample whose
@@ -536,8 +632,8 @@ impl ShadowTechnique for Lightmaps {
                 self.state = Some(self.build(ctx, patches, samples.len()));
             }
         }
-        let state = self.state.as_ref().expect("made above");
-        let queue = &ctx.gpu.queue;
+        let state = self.state.as_mut().expect("made above");
+        let queue = ctx.gpu.queue.clone();
         let reach = 2.0 * ctx.gpu_scene.bounds.diagonal().max(1e-3);
         let params_hash = hash_values(&[
             self.params.int("samples") as f64,
@@ -551,13 +647,16 @@ impl ShadowTechnique for Lightmaps {
             SamplePattern::parse(self.params.choice("pattern")).map_or(0.0, |p| p as u8 as f64),
         ]);
         let mut uniforms = Vec::with_capacity(state.patches.len());
+        let mut stale: Vec<usize> = Vec::new();
         let mut smoothies: Option<SmoothieSet> = None;
         let smoothie_fill = self.params.choice("fill") == "smoothies" && !ctx.light.is_hard();
         self.filled = 0;
         self.draws = 0;
-        for (k, patch) in state.patches.iter().enumerate() {
+        for k in 0..state.patches.len() {
+            let patch = state.patches[k];
+            let patch = &patch;
             let (tw, th) = state.texels[k];
-            let receiver = &ctx.live.instances()[patch.instance];
+            let receiver = ctx.live.instances()[patch.instance];
             let lit_side = samples.iter().any(|s| sample_projection(patch, &s.sample, reach).is_some());
             uniforms.push(PatchUniform {
                 origin: patch.origin.extend(patch.width),
@@ -567,6 +666,7 @@ impl ShadowTechnique for Lightmaps {
                 texels: Vec4::new(tw as f32, th as f32, 2e-4 * reach, if lit_side { 1.0 } else { 0.0 }),
             });
             if !lit_side {
+                state.front_current[k] = true;
                 continue;
             }
             let region = Region::of_box(&patch_region(patch, ctx.light, &samples, reach), ctx.light);
@@ -588,17 +688,107 @@ impl ShadowTechnique for Lightmaps {
                 kind: ItemKind::LightMap,
                 index: k as u32,
             };
-            if ctx.cache.is_valid(&key, &signature) {
+            if ctx.cache.is_valid(&key, &signature) && state.front_samples[k] > 0 {
                 ctx.cache.work.reused += 1;
+                state.front_current[k] = true;
                 continue;
             }
+            state.front_current[k] = false;
             if smoothie_fill && smoothies.is_none() {
                 smoothies = Some(smoothie_set(ctx));
             }
-            self.draws += fill_patch(ctx, state, k, patch, &samples, reach, receiver.id, smoothies.as_ref());
-            ctx.cache.commit(key, signature);
-            ctx.cache.work.lightmap_samples += samples.len() as u32;
-            self.filled += 1;
+            let n = samples.len() as u32;
+            if ctx.budget.is_unlimited() {
+                // Every sample now, into the shown layer.
+                let target = state.layer_views[k].clone();
+                self.draws +=
+                    fill_patch(ctx, state, &target, k, patch, &samples, 0, reach, receiver.id, smoothies.as_ref());
+                ctx.cache.commit(key, signature.clone());
+                ctx.cache.work.lightmap_samples += n;
+                state.front_samples[k] = n;
+                state.front_signature[k] = Some(signature);
+                state.front_current[k] = true;
+                state.accumulated[k] = 0;
+                state.back_signature[k] = None;
+                self.filled += 1;
+                continue;
+            }
+            // Spread over frames: samples accumulate in the back layer (restarting when the state
+            // they are for changed), filled below rung by rung across the stale patches.
+            stale.push(k);
+            if state.back_signature[k].as_ref() != Some(&signature) {
+                state.accumulated[k] = 0;
+                state.back_signature[k] = Some(signature);
+            }
+        }
+        if !stale.is_empty() {
+            let back = state.back_layers(ctx);
+            let cost = ctx.costs.predict(UnitKind::LightMapSample);
+            // Smoothie fills are one unit (one pass); sampled ones one unit per sample.
+            let per_unit = if smoothie_fill { samples.len() } else { 1 };
+            'rungs: for rung in sample_ladder(samples.len() as u32) {
+                for &k in &stale {
+                    let first = state.accumulated[k] as usize;
+                    let mut count = 0;
+                    while first + count < rung as usize && ctx.budget.take(cost * per_unit as f64) {
+                        count += per_unit;
+                    }
+                    let count = count.min(samples.len() - first);
+                    if count > 0 {
+                        let patch = state.patches[k];
+                        let receiver = ctx.live.instances()[patch.instance].id;
+                        let chunk = &samples[first..first + count];
+                        self.draws += fill_patch(
+                            ctx,
+                            state,
+                            &back[k],
+                            k,
+                            &patch,
+                            chunk,
+                            first,
+                            reach,
+                            receiver,
+                            smoothies.as_ref(),
+                        );
+                        state.accumulated[k] += count as u32;
+                        ctx.cache.work.lightmap_samples += count as u32;
+                    }
+                    if state.accumulated[k] < rung {
+                        break 'rungs;
+                    }
+                }
+            }
+        }
+        // All or nothing: the stale patches are shown when every one of them has reached a rung of
+        // the sample ladder (4, 16, 64, ... all), each with what it has accumulated.
+        if !stale.is_empty() {
+            let reached = stale.iter().map(|&k| state.accumulated[k]).min().unwrap_or(0);
+            let rung = sample_ladder(samples.len() as u32).into_iter().filter(|&r| r <= reached).max().unwrap_or(0);
+            if rung > 0 {
+                for &k in &stale {
+                    // Every stale patch has reached the rung: each shows all it has accumulated.
+                    let newer = state.front_signature[k] != state.back_signature[k];
+                    if newer || state.front_samples[k] < state.accumulated[k] {
+                        state.copy_back(ctx, k);
+                        state.front_samples[k] = state.accumulated[k];
+                        state.front_signature[k] = state.back_signature[k].clone();
+                        self.filled += 1;
+                    }
+                    if state.accumulated[k] == samples.len() as u32 {
+                        let key = ItemKey {
+                            light: ctx.light_id,
+                            owner: ctx.owner,
+                            set: state.set,
+                            kind: ItemKind::LightMap,
+                            index: k as u32,
+                        };
+                        if let Some(sig) = state.front_signature[k].clone() {
+                            ctx.cache.commit(key, sig);
+                        }
+                        state.front_current[k] = true;
+                    }
+                }
+            }
         }
         queue.write_buffer(&state.patch_buffer, 0, bytemuck::cast_slice(&uniforms));
         queue.write_buffer(
@@ -612,11 +802,34 @@ impl ShadowTechnique for Lightmaps {
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         self.rest.resolve(ctx, out);
         let Some(state) = &self.state else { return };
-        if state.patches.is_empty() {
+        if state.patches.is_empty() || !state.maps_shown() {
             return;
         }
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
         dispatch_resolve(ctx, "light maps", &self.lookup, &[&group0, &state.group]);
+    }
+
+    /// Shown as soon as `rest` is: until every lit receiver has a light map, receivers are shadowed
+    /// like the other pixels (Toromanoff's alg. 13: "otherwise render receivers like the other
+    /// objects").
+    fn shown(&self) -> bool {
+        self.rest.shown()
+    }
+
+    fn progress(&self) -> (u32, u32) {
+        match &self.state {
+            Some(s) if s.maps_shown() => {
+                // Level 2 at the ladder's first rung, one more per rung reached by every map.
+                let samples = s.front_samples.iter().filter(|&&n| n > 0).min().copied().unwrap_or(0);
+                let reached = sample_ladder(s.samples_per_patch as u32).iter().filter(|&&r| r <= samples).count();
+                (1 + reached.max(1) as u32, samples)
+            }
+            _ => (1, 0),
+        }
+    }
+
+    fn current(&self) -> bool {
+        self.rest.current() && self.state.as_ref().is_some_and(|s| s.front_current.iter().all(|&c| c))
     }
 
     fn stats(&self) -> TechniqueStats {
@@ -642,9 +855,11 @@ impl ShadowTechnique for Lightmaps {
 fn fill_patch(
     ctx: &mut FrameContext<'_>,
     state: &State,
+    target: &wgpu::TextureView,
     k: usize,
     patch: &Patch,
     samples: &[EmitterPoint],
+    first: usize,
     reach: f32,
     skip: crate::live::InstanceId,
     smoothies: Option<&SmoothieSet>,
@@ -673,7 +888,7 @@ fn fill_patch(
             centre: centre.extend(tw as f32),
             texels: Vec4::new(th as f32, emitter, if directional.is_some() { 1.0 } else { 0.0 }, 0.0),
         };
-        let slot = (k * samples.len() + j) as u64 * state.fill_stride;
+        let slot = (k * state.samples_per_patch + first + j) as u64 * state.fill_stride;
         ctx.gpu.queue.write_buffer(&state.fills, slot, bytemuck::bytes_of(&u));
         // Sums start at 0; the smoothie fill's least visibility starts at (1, 1): lit.
         let clear = match (smoothies, projection) {
@@ -685,11 +900,11 @@ fn fill_patch(
         let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("light map sample"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &state.layer_views[k],
+                view: target,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: if j == 0 { wgpu::LoadOp::Clear(clear) } else { wgpu::LoadOp::Load },
+                    load: if first + j == 0 { wgpu::LoadOp::Clear(clear) } else { wgpu::LoadOp::Load },
                     store: wgpu::StoreOp::Store,
                 },
             })],

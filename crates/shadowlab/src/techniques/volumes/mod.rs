@@ -1104,6 +1104,14 @@ impl ShadowTechnique for Volumes {
         self.frames += 1;
     }
 
+    fn shown(&self) -> bool {
+        self.receivers.as_ref().is_none_or(|r| r.map.shown())
+    }
+
+    fn current(&self) -> bool {
+        self.receivers.as_ref().is_none_or(|r| r.map.current())
+    }
+
     fn stats(&self) -> TechniqueStats {
         let Some(state) = &self.state else { return TechniqueStats::default() };
         let n = self.plans.len() as u32;

@@ -1,0 +1,316 @@
+//! Work spread over frames (Toromanoff 2005 §VII.2–4, NOTES-000 §3.4–3.7: algorithms 13, 14 and 15).
+//!
+//! Every cache fill of the live engine is made of small resumable **units** (one map view, a batch of
+//! a light map's emitter samples, one object's volumes for a light). Each frame has a [`Budget`]:
+//! the target frame time minus the predicted render time minus a margin; units run, by priority,
+//! while their predicted cost ([`CostModel`], running estimates from measured GPU time) fits, and at
+//! least one runs every frame so that work always ends. What a unit renders is not shown until
+//! every unit of its set is done (Toromanoff's all-or-nothing rule): a light shows the best level it
+//! has complete.
+//!
+//! The rendering parameters that fix the render time itself (each light's rung on its quality
+//! ladder) follow the measured frame time with hysteresis ([`Adaptation`], alg. 15), so that a cost
+//! hovering at the target does not make them switch back and forth.
+
+use std::collections::HashMap;
+
+/// What a unit of work is, for its cost estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum UnitKind {
+    /// One view of a map (a cube face, a cone, a cascade, an emitter sample's view).
+    MapView,
+    /// One emitter sample of one receiver's light map.
+    LightMapSample,
+    /// One object's volumes for one light sample.
+    VolumeObject,
+}
+
+impl UnitKind {
+    pub const ALL: [UnitKind; 3] = [Self::MapView, Self::LightMapSample, Self::VolumeObject];
+
+    /// The cost assumed before anything was measured (ms on a CPU rasteriser, a conservative start).
+    fn prior_ms(self) -> f64 {
+        match self {
+            Self::MapView => 4.0,
+            Self::LightMapSample => 1.0,
+            Self::VolumeObject => 0.2,
+        }
+    }
+}
+
+/// Running estimates of what a unit costs, per kind: an exponential moving average of measured
+/// GPU milliseconds per unit.
+#[derive(Debug, Clone)]
+pub struct CostModel {
+    estimates: HashMap<UnitKind, f64>,
+    /// Weight of a new measurement (0.25: a quarter of the estimate moves each time; 0: scripted
+    /// costs that measurements do not change).
+    pub smoothing: f64,
+}
+
+impl Default for CostModel {
+    fn default() -> Self {
+        Self { estimates: HashMap::new(), smoothing: 0.25 }
+    }
+}
+
+impl CostModel {
+    /// Fixed costs (ms per unit of each kind) that measurements leave as they are: a scripted clock
+    /// for deterministic tests and for applications that know their costs.
+    pub fn scripted(costs: &[(UnitKind, f64)]) -> Self {
+        Self { estimates: costs.iter().copied().collect(), smoothing: 0.0 }
+    }
+
+    /// The predicted cost of one unit of `kind`, in ms.
+    pub fn predict(&self, kind: UnitKind) -> f64 {
+        self.estimates.get(&kind).copied().unwrap_or_else(|| kind.prior_ms())
+    }
+
+    /// Takes in a measurement: `units` units of `kind` took `ms` together. Non-finite or negative
+    /// measurements are ignored.
+    pub fn observe(&mut self, kind: UnitKind, units: u32, ms: f64) {
+        if units == 0 || !ms.is_finite() || ms < 0.0 {
+            return;
+        }
+        let per_unit = ms / f64::from(units);
+        let alpha = self.smoothing.clamp(0.0, 1.0);
+        let e = self.estimates.entry(kind).or_insert(per_unit);
+        *e += alpha * (per_unit - *e);
+    }
+
+    /// Takes in one frame's measured work time, shared among the units run in proportion to their
+    /// predicted costs (a frame's timestamps do not tell units apart).
+    pub fn observe_frame(&mut self, units: &[(UnitKind, u32)], work_ms: f64) {
+        let predicted: f64 = units.iter().map(|&(k, n)| self.predict(k) * f64::from(n)).sum();
+        if predicted <= 0.0 || !work_ms.is_finite() || work_ms < 0.0 {
+            return;
+        }
+        let scale = work_ms / predicted;
+        let observed: Vec<(UnitKind, u32, f64)> =
+            units.iter().map(|&(k, n)| (k, n, self.predict(k) * f64::from(n) * scale)).collect();
+        for (k, n, ms) in observed {
+            self.observe(k, n, ms);
+        }
+    }
+}
+
+/// One frame's allowance for work.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Budget {
+    /// Predicted ms the frame may spend on units (infinite: everything now, the default).
+    limit_ms: f64,
+    spent_ms: f64,
+    units: u32,
+    /// Units refused this frame (work left for later frames).
+    pub deferred: u32,
+}
+
+impl Default for Budget {
+    fn default() -> Self {
+        Self::unlimited()
+    }
+}
+
+impl Budget {
+    /// No limit: every invalid item is rebuilt in the frame that invalidated it.
+    pub fn unlimited() -> Self {
+        Self { limit_ms: f64::INFINITY, spent_ms: 0.0, units: 0, deferred: 0 }
+    }
+
+    /// At most `ms` of predicted work (at least one unit runs whatever its cost).
+    pub fn new(ms: f64) -> Self {
+        Self { limit_ms: if ms.is_nan() { 0.0 } else { ms.max(0.0) }, spent_ms: 0.0, units: 0, deferred: 0 }
+    }
+
+    /// Toromanoff's alg. 15 budget: the target frame time minus the predicted render time minus a
+    /// margin (a fraction of the target).
+    pub fn for_frame(target_ms: f64, predicted_render_ms: f64, margin: f64) -> Self {
+        Self::new(target_ms - predicted_render_ms - margin * target_ms)
+    }
+
+    pub fn is_unlimited(&self) -> bool {
+        self.limit_ms.is_infinite()
+    }
+
+    /// Whether a unit predicted to cost `ms` may run now; if so it is counted as spent. The first
+    /// unit of a frame always may (so that work always ends).
+    pub fn take(&mut self, ms: f64) -> bool {
+        if self.units == 0 || self.spent_ms + ms <= self.limit_ms {
+            self.spent_ms += ms.max(0.0);
+            self.units += 1;
+            true
+        } else {
+            self.deferred += 1;
+            false
+        }
+    }
+
+    /// Whether the budget allows nothing more of that cost (without counting a refusal).
+    pub fn would_refuse(&self, ms: f64) -> bool {
+        self.units > 0 && self.spent_ms + ms > self.limit_ms
+    }
+
+    pub fn spent_ms(&self) -> f64 {
+        self.spent_ms
+    }
+
+    pub fn limit_ms(&self) -> f64 {
+        self.limit_ms
+    }
+
+    pub fn units(&self) -> u32 {
+        self.units
+    }
+}
+
+/// Frame-rate adaptation with hysteresis (Toromanoff alg. 15; the text leaves the rule open, this
+/// is ours): a level goes down one rung after `down_after` consecutive frames over the target, up
+/// one rung after `up_after` consecutive frames under `up_below` × the target, and never switches
+/// twice within `hold` frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Adaptation {
+    pub down_after: u32,
+    pub up_after: u32,
+    pub up_below: f64,
+    pub hold: u32,
+    over: u32,
+    under: u32,
+    since_switch: u32,
+}
+
+impl Default for Adaptation {
+    fn default() -> Self {
+        Self { down_after: 3, up_after: 30, up_below: 0.7, hold: 60, over: 0, under: 0, since_switch: u32::MAX / 2 }
+    }
+}
+
+/// What [`Adaptation::step`] decides for the next frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    Down,
+    Stay,
+    Up,
+}
+
+impl Adaptation {
+    /// Takes in one frame's time against the target and says whether to change level.
+    pub fn step(&mut self, frame_ms: f64, target_ms: f64) -> Step {
+        self.since_switch = self.since_switch.saturating_add(1);
+        if frame_ms > target_ms {
+            self.over += 1;
+            self.under = 0;
+        } else if frame_ms < self.up_below * target_ms {
+            self.under += 1;
+            self.over = 0;
+        } else {
+            self.over = 0;
+            self.under = 0;
+        }
+        if self.since_switch < self.hold {
+            return Step::Stay;
+        }
+        if self.over >= self.down_after {
+            self.switched();
+            return Step::Down;
+        }
+        if self.under >= self.up_after {
+            self.switched();
+            return Step::Up;
+        }
+        Step::Stay
+    }
+
+    fn switched(&mut self) {
+        self.over = 0;
+        self.under = 0;
+        self.since_switch = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_budget_admits_at_least_one_unit_and_never_more_than_its_limit() {
+        let mut b = Budget::new(10.0);
+        assert!(b.take(25.0), "the first unit runs whatever its cost");
+        assert!(!b.take(1.0), "then nothing beyond the limit");
+        let mut b = Budget::new(10.0);
+        let costs = [3.0, 4.0, 2.0, 2.5, 0.5];
+        let taken: Vec<bool> = costs.iter().map(|&c| b.take(c)).collect();
+        assert_eq!(taken, [true, true, true, false, true]);
+        assert!(b.spent_ms() <= 10.0 && b.deferred == 1);
+        let mut u = Budget::unlimited();
+        assert!((0..1000).all(|_| u.take(1e6)));
+        assert!(Budget::new(f64::NAN).limit_ms() == 0.0 && Budget::new(-5.0).limit_ms() == 0.0);
+        assert_eq!(Budget::for_frame(33.0, 20.0, 0.1).limit_ms(), 33.0 - 20.0 - 3.3);
+    }
+
+    /// A scripted sequence of budgets and costs: units planned never exceed the budget (but the
+    /// first), and a list of units resumes where it stopped until every one has run.
+    #[test]
+    fn units_resume_where_they_stopped() {
+        let costs: Vec<f64> = (0..40).map(|i| 1.0 + f64::from(i % 7)).collect();
+        let mut next = 0;
+        let mut frames = 0;
+        while next < costs.len() {
+            let mut b = Budget::new(8.0);
+            let start = next;
+            while next < costs.len() && b.take(costs[next]) {
+                next += 1;
+            }
+            assert!(next > start, "frame {frames} made no progress");
+            let planned: f64 = costs[start..next].iter().sum();
+            assert!(next - start == 1 || planned <= 8.0, "frame {frames} planned {planned} ms");
+            frames += 1;
+        }
+        // 160 ms of units in frames of at most 8 ms (but single larger units): at least 20 frames.
+        assert!((20..=40).contains(&frames), "{frames}");
+    }
+
+    #[test]
+    fn cost_estimates_follow_measurements() {
+        let mut m = CostModel::default();
+        assert_eq!(m.predict(UnitKind::MapView), UnitKind::MapView.prior_ms());
+        for _ in 0..50 {
+            m.observe(UnitKind::MapView, 4, 8.0);
+        }
+        assert!((m.predict(UnitKind::MapView) - 2.0).abs() < 1e-3);
+        m.observe(UnitKind::MapView, 0, 100.0);
+        m.observe(UnitKind::MapView, 1, f64::NAN);
+        assert!((m.predict(UnitKind::MapView) - 2.0).abs() < 1e-3, "ignored");
+        // A frame's time is shared in proportion to the predictions.
+        let mut m = CostModel { smoothing: 1.0, ..CostModel::default() };
+        m.observe(UnitKind::MapView, 1, 3.0);
+        m.observe(UnitKind::LightMapSample, 1, 1.0);
+        m.observe_frame(&[(UnitKind::MapView, 2), (UnitKind::LightMapSample, 2)], 16.0);
+        assert!(
+            (m.predict(UnitKind::MapView) - 6.0).abs() < 1e-9
+                && (m.predict(UnitKind::LightMapSample) - 2.0).abs() < 1e-9
+        );
+    }
+
+    /// A frame time that hovers around the target (±15%, deterministic) must not make the level
+    /// switch back and forth: at most 2 switches in 600 frames. Frames well over the target step
+    /// down quickly; frames well under step up, slowly.
+    #[test]
+    fn a_cost_hovering_at_the_target_does_not_oscillate() {
+        let mut a = Adaptation::default();
+        let target = 20.0;
+        let mut switches = 0;
+        for i in 0..600 {
+            let wobble = ((i * 7919) % 31) as f64 / 30.0 * 0.3 - 0.15;
+            if a.step(target * (1.0 + wobble), target) != Step::Stay {
+                switches += 1;
+            }
+        }
+        assert!(switches <= 2, "{switches} switches");
+        let mut a = Adaptation::default();
+        let downs = (0..10).filter(|_| a.step(2.0 * target, target) == Step::Down).count();
+        assert_eq!(downs, 1, "one step down within the hold");
+        let mut a = Adaptation::default();
+        let first_up = (0..200).position(|_| a.step(0.3 * target, target) == Step::Up);
+        assert_eq!(first_up, Some(29), "up after 30 frames well under the target");
+    }
+}

@@ -1,0 +1,157 @@
+//! Fills spread over frames (Toromanoff 2005 alg. 13–15) with a scripted clock: fixed unit costs
+//! and render time, so that what each frame may do is known exactly and nothing depends on timing.
+
+mod common;
+
+use glam::Vec3;
+use shadowlab::live::scheduler::{CostModel, UnitKind};
+use shadowlab::{Edit, Renderer, TechniqueSpec};
+use shadowlab_core::{LightId, load_scene};
+
+use common::gpu;
+
+/// Room, `hard` on the ceiling lamp (six cube faces) and the sun (one view): seven views. Each view
+/// costs 1 ms, rendering 10 ms; a 13 ms target leaves 13 − 10 − 1.3 = 1.7 ms: one view a frame.
+fn sliced() -> Renderer {
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let hard = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
+    for l in [0, 3] {
+        r.set_technique(LightId(l), &hard).unwrap();
+    }
+    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::MapView, 1.0)]), 10.0);
+    r.set_target_ms(Some(13.0));
+    r
+}
+
+fn visibility(r: &Renderer) -> Vec<Vec<f32>> {
+    r.live_visibility().unwrap().into_iter().map(|(_, v)| v).collect()
+}
+
+/// At start-up nothing is shown until a light's every view is rendered (all or nothing), one view a
+/// frame; then it equals a fresh engine's, and its level never goes back.
+#[test]
+fn start_up_fills_one_view_a_frame_and_shows_a_light_only_when_complete() {
+    let mut r = sliced();
+    let mut levels = Vec::new();
+    for frame in 0..10 {
+        let w = r.render().unwrap().work;
+        // The budget is never exceeded but by the one unit every frame runs (a view, with its
+        // composite copy where the dynamic chair reaches it).
+        let views = w.map_views - w.composite_views;
+        assert!(views <= 1, "frame {frame} rendered {views} views");
+        assert!(w.planned_ms <= w.budget_ms || views == 1, "frame {frame}: {w:?}");
+        let l: Vec<u32> = r.shadows.levels().iter().map(|x| x.1).collect();
+        for (now, before) in l.iter().zip(levels.last().unwrap_or(&vec![0, 0])) {
+            assert!(now >= before, "frame {frame}: a level went down: {l:?}");
+        }
+        // Unshadowed lights are exactly 1 wherever relevant.
+        for (light, v) in r.shadows.levels().iter().zip(visibility(&r)) {
+            if light.1 == 0 {
+                assert!(v.iter().all(|&x| x == 1.0), "frame {frame}: light {:?} shows a half state", light.0);
+            }
+        }
+        levels.push(l);
+    }
+    // Seven views, one per frame: the sun (one view) is complete in its first frame or after
+    // the lamp's six, the lamp after six frames at the latest... both by the seventh.
+    assert_eq!(levels[6], vec![1, 1], "{levels:?}");
+    assert!(levels[0].contains(&0), "something waited: {levels:?}");
+    let fresh = r.fresh_visibility().unwrap();
+    for ((_, f), v) in fresh.iter().zip(visibility(&r)) {
+        assert!(f == &v, "complete, the sliced engine equals a fresh one");
+    }
+}
+
+/// A chair moved across the room: until every view it was or is in is rendered anew, the old
+/// complete maps are shown (no half state), then the new ones, equal to a fresh engine's.
+#[test]
+fn a_moved_chair_shows_its_old_shadows_until_all_new_views_are_done() {
+    let mut r = sliced();
+    for _ in 0..8 {
+        r.render().unwrap();
+    }
+    assert_eq!(r.shadows.levels().iter().map(|x| x.1).collect::<Vec<_>>(), vec![1, 1]);
+    let before = visibility(&r);
+    let surface_before = r.read_surface().unwrap();
+    let chair = r.shadows.live().find_instance("chair north-west").unwrap();
+    let t = r.shadows.live().instance(chair).unwrap().transform;
+    let across = glam::Affine3A::from_translation(Vec3::new(1.6, 0.0, 1.2)) * t;
+    r.apply(Edit::Transform { instance: chair, transform: across }).unwrap();
+    let mut frames = 0;
+    let mut rendered = 0;
+    loop {
+        let w = r.render().unwrap().work;
+        frames += 1;
+        let views = w.map_views - w.composite_views;
+        assert!(views <= 1, "frame {frames}: {w:?}");
+        rendered += views;
+        let now = visibility(&r);
+        if r.shadows.levels().iter().all(|l| l.2) {
+            let fresh = r.fresh_visibility().unwrap();
+            for (f, v) in fresh.iter().zip(&now) {
+                assert!(&f.1 == v, "the new state equals a fresh engine's");
+            }
+            break;
+        }
+        // Until the update is complete the old maps are shown: wherever the surface itself did not
+        // change (away from the chair's old and new places), the visibility is exactly the old one.
+        // (All or nothing holds per light: a light whose update is complete shows its new state.)
+        let surface = r.read_surface().unwrap();
+        let pending: Vec<bool> = r.shadows.levels().iter().map(|l| !l.2).collect();
+        let mut kept = 0;
+        for i in 0..surface.len() {
+            if surface.positions[i] == surface_before.positions[i] && surface.normals[i] == surface_before.normals[i] {
+                kept += 1;
+                for (light, (b, n)) in before.iter().zip(&now).enumerate().filter(|(l, _)| pending[*l]) {
+                    assert_eq!(b[i], n[i], "frame {frames}, light {light}, pixel {i}: a half-updated map is shown");
+                }
+            }
+        }
+        // Most of the image is the same surface (measured 1,530 of 1,728 pixels).
+        assert!(kept * 2 > surface.len(), "{kept}");
+        assert!(frames < 30, "the update never completed");
+    }
+    // At one view a frame, as many frames as stale views (and at least two: the update was spread).
+    assert!(frames >= 2 && rendered as usize >= frames - 1, "{frames} frames, {rendered} views");
+}
+
+/// Light maps filled a few samples a frame: the light shows `rest`'s shadows until every lit
+/// receiver has four samples, then climbs the ladder (4, 16 samples) without ever going down, and
+/// ends exactly where a fresh engine filling everything at once does (same samples, same order).
+#[test]
+fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let spec = TechniqueSpec::parse("lightmaps:samples=16,texel=0.05,rest=hard", &[]).unwrap();
+    r.set_technique(LightId(0), &spec).unwrap();
+    // Map views 0.1 ms (the rest's six faces in the first frame), samples 1 ms, render 10 ms: a
+    // 16 ms target leaves 4.4 ms, four samples a frame.
+    let costs = CostModel::scripted(&[(UnitKind::MapView, 0.1), (UnitKind::LightMapSample, 1.0)]);
+    r.shadows.script_costs(costs, 10.0);
+    r.set_target_ms(Some(16.0));
+    let mut seen = Vec::new();
+    for frame in 0..200 {
+        let w = r.render().unwrap().work;
+        assert!(w.lightmap_samples <= 5, "frame {frame}: {w:?}");
+        let (_, level, current, samples) = r.shadows.levels()[0];
+        if let Some(&(last, _)) = seen.last() {
+            assert!(level >= last, "frame {frame}: the level went down from {last} to {level}");
+        }
+        seen.push((level, samples));
+        if current {
+            break;
+        }
+    }
+    let levels: Vec<u32> = seen.iter().map(|s| s.0).collect();
+    println!("levels over frames: {levels:?}, samples {:?}", seen.iter().map(|s| s.1).collect::<Vec<_>>());
+    // Level 1 (the rest only) first, then 2 (every lit receiver at 4 samples), then 3 (16).
+    assert_eq!(levels.first(), Some(&1));
+    assert!(levels.contains(&2) && levels.last() == Some(&3), "{levels:?}");
+    assert_eq!(seen.last().unwrap().1, 16);
+    let live = r.live_visibility().unwrap();
+    let fresh = r.fresh_visibility().unwrap();
+    assert!(live[0].1 == fresh[0].1, "sixteen samples accumulated over frames equal sixteen at once");
+}

@@ -1,5 +1,7 @@
 //! Arguments shared by several commands (DESIGN.md §6).
 
+use std::path::PathBuf;
+
 use anyhow::{Context, Result, bail};
 use shadowlab_core::{LightId, Scene, View, load_scene};
 
@@ -126,44 +128,330 @@ pub fn open_gpu(global: &GlobalArgs) -> Result<shadowlab::Gpu> {
     Ok(gpu)
 }
 
-/// Technique selection shared by render, compare and bench.
+/// Technique selection shared by render, compare, bench and play (and analyze, without `auto`).
 #[derive(clap::Args, Debug, Clone)]
 pub struct TechniqueArgs {
-    /// Techniques with default parameters, comma-separated (`hard,pcf,sampled`).
+    /// Techniques with default parameters, comma-separated (`hard,pcf,sampled`; `auto`: one per
+    /// light, chosen by measured error within a budget).
     #[arg(long, value_delimiter = ',', conflicts_with = "technique")]
     pub techniques: Vec<String>,
-    /// A technique with parameters, `ID` or `ID:K=V,K=V`; repeat to compare configurations.
+    /// A technique with parameters, `ID` or `ID:K=V,K=V`; repeat to compare configurations. `auto`
+    /// gives each light the candidate with the lowest measured error that fits its share of
+    /// `--budget-ms` (docs/calibration-format.md).
     #[arg(long)]
     pub technique: Vec<String>,
     /// Set a parameter on every technique that has it (`--set map_size=1024`).
     #[arg(long = "set", value_name = "K=V")]
     pub set: Vec<String>,
+    /// With `auto`: the file `shadowlab calibrate` wrote (default: the built-in table by light type).
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+    /// With `auto`: the frame's shadow budget in the calibration's ms, shared equally by the
+    /// shadowed lights (default: 4 × the sum of their `hard` costs).
+    #[arg(long, value_name = "MS")]
+    pub budget_ms: Option<f64>,
+    /// With `auto`: quality (the budget ×2), balanced (×1) or speed (×0.5).
+    #[arg(long, value_name = "P", value_parser = ["quality", "balanced", "speed"])]
+    pub preference: Option<String>,
 }
 
+/// The pseudo-technique that picks one technique per light.
+pub const AUTO: &str = "auto";
+
 impl TechniqueArgs {
-    /// The specs given, or `default` when none was.
-    pub fn specs(&self, default: &[&str]) -> Result<Vec<shadowlab::TechniqueSpec>> {
-        let given: Vec<String> = if !self.technique.is_empty() {
+    /// The specs as given, or `default` when none was.
+    fn given(&self, default: &[&str]) -> Vec<String> {
+        if !self.technique.is_empty() {
             self.technique.clone()
         } else if !self.techniques.is_empty() {
             self.techniques.iter().map(|t| t.trim().to_owned()).filter(|t| !t.is_empty()).collect()
         } else {
             default.iter().map(|s| (*s).to_owned()).collect()
-        };
+        }
+    }
+
+    /// Whether any of `--calibration`, `--budget-ms`, `--preference` was given.
+    fn auto_options_given(&self) -> bool {
+        self.calibration.is_some() || self.budget_ms.is_some() || self.preference.is_some()
+    }
+
+    /// The specs given, or `default` when none was (`auto` is refused: for commands that set one
+    /// technique on every light).
+    pub fn specs(&self, default: &[&str]) -> Result<Vec<shadowlab::TechniqueSpec>> {
+        let given = self.given(default);
+        if given.iter().any(|s| s == AUTO) || self.auto_options_given() {
+            bail!(
+                "--technique auto (and --calibration, --budget-ms, --preference) is for render, compare, bench and play"
+            );
+        }
         let specs =
             given.iter().map(|s| shadowlab::TechniqueSpec::parse(s, &self.set)).collect::<Result<Vec<_>, _>>()?;
         shadowlab::registry::check_global_sets(&specs, &self.set)?;
         Ok(specs)
     }
+
+    /// The techniques given (or `default`), `auto` resolved to one spec per light of
+    /// `setup.lights`, which share the budget.
+    pub fn selected(&self, setup: &Setup, default: &[&str]) -> Result<Vec<Selected>> {
+        let given = self.given(default);
+        let wants_auto = given.iter().any(|s| s == AUTO);
+        if !wants_auto && self.auto_options_given() {
+            bail!("--calibration, --budget-ms and --preference go with --technique auto");
+        }
+        let plan = if wants_auto { Some(std::rc::Rc::new(self.resolve_auto(setup)?)) } else { None };
+        let selected = given
+            .iter()
+            .map(|s| match &plan {
+                Some(p) if s == AUTO => Ok(Selected::Auto(p.clone())),
+                _ => Ok(Selected::Spec(shadowlab::TechniqueSpec::parse(s, &self.set)?)),
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut all: Vec<shadowlab::TechniqueSpec> = Vec::new();
+        for s in &selected {
+            match s {
+                Selected::Spec(spec) => all.push(spec.clone()),
+                Selected::Auto(p) => all.extend(p.specs.iter().map(|(_, spec)| spec.clone())),
+            }
+        }
+        shadowlab::registry::check_global_sets(&all, &self.set)?;
+        Ok(selected)
+    }
+
+    /// Reads the calibration (or takes the built-in table) and chooses per light.
+    fn resolve_auto(&self, setup: &Setup) -> Result<AutoPlan> {
+        let preference = match &self.preference {
+            Some(p) => shadowlab::auto::Preference::parse(p).with_context(|| format!("--preference {p}"))?,
+            None => shadowlab::auto::Preference::default(),
+        };
+        let indices: Vec<u32> = setup.lights.iter().map(|id| id.0).collect();
+        let (calibration, source) = match &self.calibration {
+            Some(path) => {
+                let cal = crate::commands::calibrate::read_calibration(path)?;
+                if cal.scene != setup.scene.name {
+                    bail!(
+                        "calibration {} is for scene '{}', not '{}': run `shadowlab calibrate --scene ...` for this scene",
+                        path.display(),
+                        cal.scene,
+                        setup.scene.name
+                    );
+                }
+                for id in &setup.lights {
+                    let light = &setup.scene.lights[id.index()];
+                    match cal.light(id.0) {
+                        Some(l) if l.name == light.name => {}
+                        Some(l) => bail!(
+                            "calibration {}: light {} is '{}' there, '{}' in the scene",
+                            path.display(),
+                            id.0,
+                            l.name,
+                            light.name
+                        ),
+                        None => {
+                            bail!("calibration {} has no figures for light {} '{}'", path.display(), id.0, light.name)
+                        }
+                    }
+                }
+                (cal, path.display().to_string())
+            }
+            None => {
+                let lights: Vec<(u32, String, String)> = setup
+                    .lights
+                    .iter()
+                    .map(|id| {
+                        let l = &setup.scene.lights[id.index()];
+                        (id.0, l.name.clone(), l.type_name().to_owned())
+                    })
+                    .collect();
+                (shadowlab::auto::Calibration::built_in(&setup.scene.name, &lights), "built-in table".to_owned())
+            }
+        };
+        let calibration = calibration.only(&indices);
+        let default_budget = calibration.default_budget_ms();
+        let budget_ms = match self.budget_ms {
+            Some(b) if b.is_finite() && b >= 0.0 => b,
+            Some(b) => bail!("--budget-ms {b} must be a number ≥ 0"),
+            None => default_budget,
+        };
+        let choices = shadowlab::auto::choose(&calibration, budget_ms, preference);
+        let mut specs = Vec::with_capacity(choices.len());
+        for c in &choices {
+            let id = LightId(c.light);
+            let light = &setup.scene.lights[id.index()];
+            let spec = shadowlab::TechniqueSpec::parse(&c.spec, &self.set)
+                .with_context(|| format!("auto: light '{}' from {source}", light.name))?;
+            if !spec.info.supports(light) {
+                bail!("auto: '{}' from {source} does not support {} light '{}'", c.spec, light.type_name(), light.name);
+            }
+            specs.push((id, spec));
+        }
+        Ok(AutoPlan {
+            choices,
+            specs,
+            source,
+            budget_ms,
+            default_budget: self.budget_ms.is_none(),
+            preference,
+            light_types: setup
+                .lights
+                .iter()
+                .map(|id| (id.0, setup.scene.lights[id.index()].type_name().to_owned()))
+                .collect(),
+        })
+    }
+}
+
+/// `--technique auto` resolved: the spec each light got, and why.
+#[derive(Debug)]
+pub struct AutoPlan {
+    pub choices: Vec<shadowlab::auto::Choice>,
+    pub specs: Vec<(LightId, shadowlab::TechniqueSpec)>,
+    /// The calibration file, or "built-in table".
+    pub source: String,
+    pub budget_ms: f64,
+    /// Whether the budget is the default one (4 × the lights' `hard` costs).
+    pub default_budget: bool,
+    pub preference: shadowlab::auto::Preference,
+    /// (light index, type) of the planned lights.
+    light_types: Vec<(u32, String)>,
+}
+
+impl AutoPlan {
+    /// The spec chosen for `light`, if it was planned.
+    pub fn spec_for(&self, light: LightId) -> Option<&shadowlab::TechniqueSpec> {
+        self.specs.iter().find(|(id, _)| *id == light).map(|(_, s)| s)
+    }
+
+    /// For a light added after planning (`play`): the choice of the first planned light of the
+    /// same type, if any.
+    pub fn like(&self, light: &shadowlab_core::Light) -> Option<(&shadowlab::auto::Choice, &shadowlab::TechniqueSpec)> {
+        let (index, _) = self.light_types.iter().find(|(_, t)| t == light.type_name())?;
+        let choice = self.choices.iter().find(|c| c.light == *index)?;
+        Some((choice, self.spec_for(LightId(*index))?))
+    }
+
+    /// `[{light, name, spec, reason, share_ms, cost_ms, rmse, fits}]`: metrics.json's `auto`.
+    pub fn choices_json(&self) -> serde_json::Value {
+        serde_json::Value::Array(self.choices.iter().map(choice_json).collect())
+    }
+
+    /// The budget and where the figures came from.
+    pub fn settings_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "budget_ms": self.budget_ms,
+            "default_budget": self.default_budget,
+            "preference": self.preference.name(),
+            "budget_factor": self.preference.budget_factor(),
+            "effective_budget_ms": self.budget_ms * self.preference.budget_factor(),
+            "calibration": self.source,
+        })
+    }
+
+    /// One line on the budget, then one per light: what it got, and why.
+    pub fn describe(&self) -> Vec<String> {
+        let mut lines = vec![format!(
+            "auto: budget {:.3} ms{} × {} ({}) from {}, shared equally by {} light{}",
+            self.budget_ms,
+            if self.default_budget { " (default: 4 × hard)" } else { "" },
+            self.preference.budget_factor(),
+            self.preference.name(),
+            self.source,
+            self.choices.len(),
+            if self.choices.len() == 1 { "" } else { "s" }
+        )];
+        for c in &self.choices {
+            lines.push(format!("auto: light {} '{}' → {}: {}", c.light, c.name, c.spec, c.reason));
+        }
+        lines
+    }
+}
+
+/// One choice as JSON (non-finite numbers as null).
+pub fn choice_json(c: &shadowlab::auto::Choice) -> serde_json::Value {
+    let num = |x: f64| if x.is_finite() { serde_json::json!(x) } else { serde_json::Value::Null };
+    serde_json::json!({
+        "light": c.light, "name": c.name, "spec": c.spec, "reason": c.reason,
+        "share_ms": num(c.share_ms), "cost_ms": num(c.cost_ms), "rmse": num(c.rmse), "fits": c.fits,
+    })
+}
+
+/// What a run sets on the chosen lights: one spec on every light, or one per light (`auto`).
+#[derive(Debug, Clone)]
+pub enum Selected {
+    Spec(shadowlab::TechniqueSpec),
+    Auto(std::rc::Rc<AutoPlan>),
+}
+
+impl Selected {
+    /// The spec as given, or `auto`.
+    pub fn label(&self) -> &str {
+        match self {
+            Selected::Spec(s) => &s.spec,
+            Selected::Auto(_) => AUTO,
+        }
+    }
+
+    /// The bare id, or `auto`.
+    pub fn id(&self) -> &str {
+        match self {
+            Selected::Spec(s) => s.info.id,
+            Selected::Auto(_) => AUTO,
+        }
+    }
+
+    /// The parameters (`auto`: its budget and source).
+    pub fn params_json(&self) -> serde_json::Value {
+        match self {
+            Selected::Spec(s) => s.params.to_json(),
+            Selected::Auto(p) => p.settings_json(),
+        }
+    }
+
+    pub fn auto(&self) -> Option<&AutoPlan> {
+        match self {
+            Selected::Spec(_) => None,
+            Selected::Auto(p) => Some(p),
+        }
+    }
+
+    /// The spec for `light` (`id`): the one spec, or the light's choice.
+    pub fn spec_for(&self, id: LightId) -> Option<&shadowlab::TechniqueSpec> {
+        match self {
+            Selected::Spec(s) => Some(s),
+            Selected::Auto(p) => p.spec_for(id),
+        }
+    }
+
+    /// Checks that every chosen light can take the technique.
+    pub fn check_supported(&self, setup: &Setup) -> Result<()> {
+        for id in &setup.lights {
+            let l = &setup.scene.lights[id.index()];
+            let spec = self.spec_for(*id).with_context(|| format!("auto chose nothing for light '{}'", l.name))?;
+            anyhow::ensure!(
+                spec.info.supports(l),
+                "technique '{}' does not support {} light '{}'",
+                spec.spec,
+                l.type_name(),
+                l.name
+            );
+        }
+        Ok(())
+    }
 }
 
 /// A renderer for `setup` with `spec` on the chosen lights and `none` on the others.
 pub fn renderer(gpu: &shadowlab::Gpu, setup: &Setup, spec: &shadowlab::TechniqueSpec) -> Result<shadowlab::Renderer> {
+    renderer_for(gpu, setup, &Selected::Spec(spec.clone()))
+}
+
+/// A renderer for `setup` with each chosen light's spec of `selected` and `none` on the others.
+pub fn renderer_for(gpu: &shadowlab::Gpu, setup: &Setup, selected: &Selected) -> Result<shadowlab::Renderer> {
     let mut r = shadowlab::Renderer::new(gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
     let none = shadowlab::TechniqueSpec::parse("none", &[])?;
     for (i, light) in setup.scene.lights.iter().enumerate() {
         let id = LightId(i as u32);
         if setup.lights.contains(&id) {
+            let spec =
+                selected.spec_for(id).with_context(|| format!("auto chose nothing for light '{}'", light.name))?;
             r.set_technique(id, spec).with_context(|| format!("light '{}'", light.name))?;
         } else {
             r.set_technique(id, &none)?;

@@ -33,6 +33,9 @@ enum Command {
     Compare(commands::compare::Args),
     /// Time techniques: GPU ms per pass, CPU ms, memory, ratios over `hard`.
     Bench(commands::bench::Args),
+    /// Measure, per light, each candidate technique's cost and error against the truth on the
+    /// scene's views: the calibration file `--technique auto` chooses from.
+    Calibrate(commands::calibrate::Args),
     /// Perspective aliasing of a light's maps: predicted curves and measured texels per pixel.
     Analyze(commands::analyze::Args),
     /// Run a timeline of edits (drags, light changes, moves, camera) on the live engine: time and
@@ -49,6 +52,7 @@ fn main() {
         Command::Reference(a) => commands::reference::run(&cli.global, a),
         Command::Compare(a) => commands::compare::run(&cli.global, a),
         Command::Bench(a) => commands::bench::run(&cli.global, a),
+        Command::Calibrate(a) => commands::calibrate::run(&cli.global, a),
         Command::Analyze(a) => commands::analyze::run(&cli.global, a),
         Command::Play(a) => commands::play::run(&cli.global, a),
     };

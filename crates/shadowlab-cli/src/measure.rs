@@ -9,9 +9,9 @@
 use anyhow::Result;
 use serde_json::{Value, json};
 use shadowlab::timing::PassKind;
-use shadowlab::{FrameReport, Renderer, TechniqueSpec};
+use shadowlab::{FrameReport, Renderer};
 
-use crate::args::{Setup, renderer};
+use crate::args::{Selected, Setup, renderer_for};
 
 /// Medians over the timed frames.
 #[derive(Debug, Clone, PartialEq)]
@@ -73,17 +73,17 @@ pub struct Measured {
     pub cached: Timing,
 }
 
-/// Renders `warmup + frames` frames of `spec` uncached, then `warmup + frames` with the cache on;
-/// `tick` is called after each frame.
+/// Renders `warmup + frames` frames of `selected` (one spec, or one per light) uncached, then
+/// `warmup + frames` with the cache on; `tick` is called after each frame.
 pub fn measure(
     gpu: &shadowlab::Gpu,
     setup: &Setup,
-    spec: &TechniqueSpec,
+    selected: &Selected,
     warmup: usize,
     frames: usize,
     tick: &dyn Fn(),
 ) -> Result<Measured> {
-    let mut r = renderer(gpu, setup, spec)?;
+    let mut r = renderer_for(gpu, setup, selected)?;
     let run = |r: &mut Renderer| -> Result<Timing> {
         let mut reports = Vec::with_capacity(warmup + frames);
         for _ in 0..warmup + frames.max(1) {

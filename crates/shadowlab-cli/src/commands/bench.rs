@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use serde_json::json;
 
-use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu};
+use crate::args::{GlobalArgs, SceneArgs, Selected, TechniqueArgs, open_gpu};
 use crate::measure::measure;
 use crate::progress;
 
@@ -30,16 +30,20 @@ pub struct Args {
 
 pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let setup = args.scene.load()?;
-    let specs = args.techniques.specs(super::compare::DEFAULT_TECHNIQUES)?;
+    let specs = args.techniques.selected(&setup, super::compare::DEFAULT_TECHNIQUES)?;
+    for s in &specs {
+        s.check_supported(&setup)?;
+    }
+    let auto = specs.iter().find_map(Selected::auto);
     let gpu = open_gpu(global)?;
     let (frames, warmup) = (args.frames as usize, args.warmup as usize);
     let bar = progress::bar((2 * specs.len() * (frames + warmup)) as u64, "bench");
     let mut results = Vec::new();
     for spec in &specs {
-        bar.set_message(format!("bench {}", spec.spec));
+        bar.set_message(format!("bench {}", spec.label()));
         let m = measure(&gpu, &setup, spec, warmup, frames, &|| bar.inc(1))?;
         let stats = m.renderer.shadows.stats();
-        results.push((spec.spec.clone(), spec.info.id, spec.params.to_json(), m.timing, stats, m.cached));
+        results.push((spec.label().to_owned(), spec.id().to_owned(), spec.params_json(), m.timing, stats, m.cached));
     }
     bar.finish_and_clear();
     // The baseline: plain `hard`, else the first `hard` with parameters (`hard:faces=front`).
@@ -52,6 +56,11 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         "{} / {} at {}x{}, {} frames after {} warm-up, adapter {}",
         setup.scene.name, setup.view.name, setup.width, setup.height, frames, warmup, gpu.adapter
     );
+    if let Some(plan) = auto {
+        for line in plan.describe() {
+            println!("{line}");
+        }
+    }
     println!(
         "{:<34} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>9} {:>9}",
         "technique", "frame ms", "gbuffer", "shadow", "visib.", "lighting", "CPU ms", "×hard", "still ms", "MiB"
@@ -88,11 +97,15 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         println!("(no timestamp queries on this adapter: frame ms are CPU wall-clock times)");
     }
     if let Some(path) = &args.json {
-        let doc = json!({
+        let mut doc = json!({
             "scene": setup.scene.name, "view": setup.view.name, "width": setup.width, "height": setup.height,
             "adapter": { "name": gpu.adapter.name, "backend": gpu.adapter.backend, "device_type": gpu.adapter.device_type },
             "techniques": json_rows,
         });
+        if let Some(plan) = auto {
+            doc["auto"] = plan.choices_json();
+            doc["auto_budget"] = plan.settings_json();
+        }
         std::fs::write(path, serde_json::to_string_pretty(&doc)?)?;
         println!("→ {}", path.display());
     }

@@ -19,7 +19,7 @@ use shadowlab_reference::images::{
 use shadowlab_reference::metrics::{ErrorStats, flip_mean, image_rmse, rmse_between};
 use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference};
 
-use crate::args::{GlobalArgs, SceneArgs, Setup, TechniqueArgs, open_gpu, renderer, slug};
+use crate::args::{GlobalArgs, SceneArgs, Selected, Setup, TechniqueArgs, open_gpu, renderer, renderer_for, slug};
 use crate::measure::{Timing, measure};
 use crate::progress;
 use crate::report::{self, PlotPoint};
@@ -66,19 +66,12 @@ struct LightRef<'a> {
 
 pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let setup = args.scene.load()?;
-    let specs = args.techniques.specs(DEFAULT_TECHNIQUES)?;
+    let specs = args.techniques.selected(&setup, DEFAULT_TECHNIQUES)?;
     for s in &specs {
-        for id in &setup.lights {
-            let l = &setup.scene.lights[id.index()];
-            anyhow::ensure!(
-                s.info.supports(l),
-                "technique '{}' does not support {} light '{}'",
-                s.spec,
-                l.type_name(),
-                l.name
-            );
-        }
+        s.check_supported(&setup)?;
     }
+    // `auto`: which light got what, and why (one plan however often `auto` is listed).
+    let auto = specs.iter().find_map(Selected::auto);
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let gpu = open_gpu(global)?;
     let (w, h) = (setup.width, setup.height);
@@ -149,9 +142,9 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let mut outcomes = Vec::new();
     let mut used = Vec::new();
     for spec in &specs {
-        bar.set_message(format!("technique {}", spec.spec));
+        bar.set_message(format!("technique {}", spec.label()));
         let m = measure(&gpu, &setup, spec, warmup, frames, &|| bar.inc(1))?;
-        let mut tslug = slug(&spec.spec);
+        let mut tslug = slug(spec.label());
         while used.contains(&tslug) {
             tslug.push('_');
         }
@@ -166,11 +159,15 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             let stats = ErrorStats::compare(&v, &r.values);
             pooled.merge(&stats);
             let s = stats.summary();
-            light_entries.push(json!({
+            let mut entry = json!({
                 "index": r.id.0, "name": r.name, "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs,
                 "wrong_frac": s.wrong_frac, "penumbra_rmse": s.penumbra_rmse, "relevant_pixels": s.relevant_pixels,
                 "lit_darkened_frac": s.lit_darkened_frac, "shadow_brightened_frac": s.shadow_brightened_frac,
-            }));
+            });
+            if let (Some(_), Some(chosen)) = (spec.auto(), spec.spec_for(r.id)) {
+                entry["spec"] = json!(chosen.spec);
+            }
+            light_entries.push(entry);
             // Shown where the reference is relevant; elsewhere the technique's value means nothing.
             let masked: Vec<f32> =
                 v.iter().zip(&r.values).map(|(&x, &y)| if y.is_nan() { f32::NAN } else { x }).collect();
@@ -187,9 +184,9 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         let s = pooled.summary();
         let stats = m.renderer.shadows.stats();
         entries.push(json!({
-            "id": spec.info.id,
-            "spec": spec.spec,
-            "params": spec.params.to_json(),
+            "id": spec.id(),
+            "spec": spec.label(),
+            "params": spec.params_json(),
             "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs, "wrong_frac": s.wrong_frac,
             "penumbra_rmse": s.penumbra_rmse, "flip_mean": flip, "image_rmse": image_error,
             "lit_darkened_frac": s.lit_darkened_frac, "shadow_brightened_frac": s.shadow_brightened_frac,
@@ -204,7 +201,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "technique_stats": stats.extra.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
         }));
         outcomes.push(Outcome {
-            spec: spec.spec.clone(),
+            spec: spec.label().to_owned(),
             timing: m.timing.clone(),
             image: encode_rgb_png(&image, w, h)?,
             light_images,
@@ -236,7 +233,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     for (e, o) in entries.iter_mut().zip(&outcomes) {
         e["time_ratio_over_hard"] = hard_ms.map(|h| json!(o.timing.frame_ms() / h)).unwrap_or(Value::Null);
     }
-    let metrics = json!({
+    let mut metrics = json!({
         "scene": setup.scene.name,
         "view": setup.view.name,
         "width": w, "height": h,
@@ -251,6 +248,10 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         "techniques": entries,
         "path": path_json,
     });
+    if let Some(plan) = auto {
+        metrics["auto"] = plan.choices_json();
+        metrics["auto_budget"] = plan.settings_json();
+    }
     std::fs::write(args.out.join("metrics.json"), serde_json::to_string_pretty(&metrics)?)?;
     let html = report_html(&setup, &metrics, &outcomes, &refs, &encode_rgb_png(&reference_image, w, h)?, &args.out)?;
     std::fs::write(args.out.join("report.html"), html)?;
@@ -277,6 +278,15 @@ fn percent(v: &Value) -> String {
 }
 
 fn print_summary(metrics: &Value) {
+    for c in metrics["auto"].as_array().into_iter().flatten() {
+        println!(
+            "auto: light {} '{}' → {}: {}",
+            c["light"],
+            c["name"].as_str().unwrap_or(""),
+            c["spec"].as_str().unwrap_or(""),
+            c["reason"].as_str().unwrap_or("")
+        );
+    }
     let flicker = !metrics["path"].is_null();
     println!(
         "{:<34} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8}{}",
@@ -424,7 +434,7 @@ fn report_html(
 <p>{w}×{h} pixels · lights: {lights} · adapter: {adapter} ({backend}, {dtype}) · reference: {samples} samples, seed {seed}, {secs:.1} s · noise floor RMSE {noise:.4}</p>\
 <h2>Which technique, at what cost, how wrong</h2>{table}\
 <p class=\"note\">Errors over relevant pixels (DESIGN.md §6): wrong = |V − V<sub>ref</sub>| &gt; 0.1; penumbra RMSE over the truth's penumbra, pixels where V<sub>ref</sub> is in (0.02, 0.98) (only V<sub>ref</sub> decides, so false faint shadows cannot dilute it); lit darkened = fraction with V<sub>ref</sub> = 1 and V &lt; 0.98 (acne, false shadows); shadow brightened = fraction with V<sub>ref</sub> = 0 and V &gt; 0.02 (light leaks); a missing V (NaN) counts as an error of 1; FLIP and image RMSE (Azri 2020's measure, over pixels with geometry) of the final image against the image lit with the reference visibility. Times are medians of {frames} frames after warm-up; ratios over <code>hard</code> hold across machines, absolute times do not (a CPU adapter is not a GPU).</p>\
-<h2>Quality against time</h2>{svg}\
+{auto}<h2>Quality against time</h2>{svg}\
 <h2>Images</h2>{images}\
 <h2>Visibility and error per light</h2><p class=\"note\">Error heatmaps: white exact, blue too dark (V &lt; V<sub>ref</sub>), red too bright; grey not relevant. Colour ∝ √|Δ|.</p>{per_light}\
 </body></html>",
@@ -442,7 +452,57 @@ fn report_html(
         secs = r["seconds"].as_f64().unwrap_or(0.0),
         noise = r["noise_floor_rmse"].as_f64().unwrap_or(0.0),
         frames = outcomes.first().map(|o| o.timing.frames).unwrap_or(0),
+        auto = auto_html(metrics),
     ))
+}
+
+/// The `auto` section: which light got what, and why; empty without `auto`.
+fn auto_html(metrics: &Value) -> String {
+    let Some(choices) = metrics["auto"].as_array() else {
+        return String::new();
+    };
+    // This run's error of each light under `auto`.
+    let here = metrics["techniques"]
+        .as_array()
+        .and_then(|t| t.iter().find(|t| t["id"] == "auto"))
+        .and_then(|t| t["lights"].as_array().cloned())
+        .unwrap_or_default();
+    let rows: Vec<Vec<String>> = choices
+        .iter()
+        .map(|c| {
+            let measured = here.iter().find(|l| l["index"] == c["light"]).map(|l| &l["rmse"]).unwrap_or(&Value::Null);
+            vec![
+                report::escape(&format!("{} '{}'", c["light"], c["name"].as_str().unwrap_or(""))),
+                report::escape(c["spec"].as_str().unwrap_or("")),
+                fmt(&c["share_ms"], 3),
+                fmt(&c["cost_ms"], 3),
+                if c["fits"].as_bool() == Some(true) { "yes".to_owned() } else { "no".to_owned() },
+                fmt(&c["rmse"], 4),
+                fmt(measured, 4),
+                format!(
+                    "<span style=\"text-align:left;display:block\">{}</span>",
+                    report::escape(c["reason"].as_str().unwrap_or(""))
+                ),
+            ]
+        })
+        .collect();
+    let b = &metrics["auto_budget"];
+    format!(
+        "<h2>auto: which light got what, and why</h2>\
+<p>budget {budget} ms{default} × {factor} ({preference}) = {effective} ms, shared equally by the lights; figures from {source}.</p>{table}\
+<p class=\"note\">Each light gets the candidate with the lowest calibrated RMSE among those whose calibrated cost (uncached frame − <code>none</code> frame) fits its share; when none fits, the cheapest. Costs and RMSE are the calibration's (or the built-in table's); “RMSE here” is this run's.</p>",
+        budget = fmt(&b["budget_ms"], 3),
+        default =
+            if b["default_budget"].as_bool() == Some(true) { " (default: 4 × the lights' hard cost)" } else { "" },
+        factor = b["budget_factor"],
+        preference = report::escape(b["preference"].as_str().unwrap_or("")),
+        effective = fmt(&b["effective_budget_ms"], 3),
+        source = report::escape(b["calibration"].as_str().unwrap_or("")),
+        table = report::table(
+            &["light", "spec", "share ms", "cost ms", "fits", "RMSE (calibration)", "RMSE here", "why"],
+            &rows
+        ),
+    )
 }
 
 /// A path of the scene, or views named in a comma-separated list.
@@ -475,7 +535,7 @@ fn resolve_path(setup: &Setup, spec: &str, frames: Option<u32>) -> Result<shadow
 fn measure_flicker(
     gpu: &shadowlab::Gpu,
     setup: &Setup,
-    specs: &[TechniqueSpec],
+    specs: &[Selected],
     views: &[shadowlab_core::View],
     settings: &ReferenceSettings,
 ) -> Result<Vec<shadowlab_reference::temporal::FlickerStats>> {
@@ -499,8 +559,8 @@ fn measure_flicker(
     }
     let mut out = Vec::with_capacity(specs.len());
     for spec in specs {
-        bar.set_message(format!("path: {}", spec.spec));
-        let mut r = renderer(gpu, setup, spec)?;
+        bar.set_message(format!("path: {}", spec.label()));
+        let mut r = renderer_for(gpu, setup, spec)?;
         let mut stats = FlickerStats::default();
         let mut previous: Option<Vec<Vec<f32>>> = None;
         for (t, v) in views.iter().enumerate() {

@@ -1,5 +1,6 @@
 pub mod analyze;
 pub mod bench;
+pub mod calibrate;
 pub mod compare;
 pub mod play;
 pub mod reference;

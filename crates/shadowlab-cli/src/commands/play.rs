@@ -20,7 +20,7 @@ use shadowlab_core::LightId;
 use shadowlab_reference::metrics::ErrorStats;
 use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference};
 
-use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, parse_size};
+use crate::args::{GlobalArgs, SceneArgs, Selected, TechniqueArgs, choice_json, open_gpu, parse_size};
 use crate::measure::median;
 use crate::progress;
 use crate::report;
@@ -100,7 +100,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         emitter_scale: args.emitter_scale,
     };
     let setup = scene_args.load()?;
-    let specs = args.techniques.specs(&[DEFAULT_TECHNIQUE])?;
+    let specs = args.techniques.selected(&setup, &[DEFAULT_TECHNIQUE])?;
     let (name, text) = read_timeline(&args.timeline, &setup.scene)?;
     let mode = if args.drag_as_permanent { DragMode::Permanent } else { DragMode::Temporary };
     let plan = timeline::parse(&text)
@@ -124,9 +124,16 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let mut r = Renderer::new(&gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
     r.shadows.set_caching(!args.no_cache);
     let none = TechniqueSpec::parse("none", &[])?;
+    if let Some(plan) = specs.iter().find_map(Selected::auto) {
+        for line in plan.describe() {
+            println!("{line}");
+        }
+    }
+    // `auto` on lights the timeline adds: what each got, and why.
+    let mut auto_added = Vec::new();
     let mut measured = Vec::new();
     for i in 0..setup.scene.lights.len() as u32 {
-        if shadow_light(&mut r, LightId(i), &specs, &none)? {
+        if shadow_light(&mut r, LightId(i), &specs, &none, &mut auto_added)? {
             measured.push(LightId(i));
         }
     }
@@ -141,7 +148,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let mut checks = Vec::new();
     for (f, fp) in plan.frames.iter().enumerate() {
         for step in &fp.steps {
-            apply(&mut r, step, &specs, &none, &mut measured).with_context(|| format!("frame {f}"))?;
+            apply(&mut r, step, &specs, &none, &mut measured, &mut auto_added).with_context(|| format!("frame {f}"))?;
         }
         let report = r.render().with_context(|| format!("frame {f}"))?;
         records.push(FrameRecord {
@@ -161,7 +168,15 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     }
     bar.finish_and_clear();
 
-    let doc = document(&args, &name, &setup, &specs, &gpu, &plan, &records, &checks);
+    let mut doc = document(&args, &name, &setup, &specs, &gpu, &plan, &records, &checks);
+    if let Some(p) = specs.iter().find_map(Selected::auto) {
+        let mut choices = p.choices_json();
+        if let Some(list) = choices.as_array_mut() {
+            list.extend(auto_added);
+        }
+        doc["auto"] = choices;
+        doc["auto_budget"] = p.settings_json();
+    }
     std::fs::write(args.out.join("timeline.json"), serde_json::to_string_pretty(&doc)?)?;
     let svg = plot(&plan, &records, doc["time_source"].as_str().unwrap_or("cpu"))?;
     std::fs::write(args.out.join("timeline.svg"), &svg)?;
@@ -189,13 +204,34 @@ fn read_timeline(spec: &str, scene: &shadowlab_core::Scene) -> Result<(String, S
     Ok((path.display().to_string(), text))
 }
 
-/// Shadows `id` with the last spec that supports it, or leaves it unshadowed (`none`) with a
-/// warning; returns whether it is measured (has a technique of the run).
-fn shadow_light(r: &mut Renderer, id: LightId, specs: &[TechniqueSpec], none: &TechniqueSpec) -> Result<bool> {
+/// Shadows `id` with the last spec that supports it (`auto`: the light's choice; for a light the
+/// timeline adds, the choice of the first light of its type, noted in `auto_added`), or leaves it
+/// unshadowed (`none`) with a warning; returns whether it is measured (has a technique of the run).
+fn shadow_light(
+    r: &mut Renderer,
+    id: LightId,
+    specs: &[Selected],
+    none: &TechniqueSpec,
+    auto_added: &mut Vec<Value>,
+) -> Result<bool> {
     let light = r.shadows.live().light(id).context("no such light")?.clone();
-    match specs.iter().rev().find(|s| s.info.supports(&light)) {
+    let found = specs.iter().rev().find_map(|s| match s {
+        Selected::Spec(spec) => spec.info.supports(&light).then(|| spec.clone()),
+        Selected::Auto(plan) => plan.spec_for(id).cloned().or_else(|| {
+            let (like, spec) = plan.like(&light)?;
+            let mut choice = like.clone();
+            choice.light = id.0;
+            choice.name = light.name.clone();
+            choice.reason =
+                format!("added by the timeline: as {} light '{}' ({})", light.type_name(), like.name, like.reason);
+            println!("auto: light {} '{}' → {}: {}", id.0, light.name, choice.spec, choice.reason);
+            auto_added.push(choice_json(&choice));
+            Some(spec.clone())
+        }),
+    });
+    match found {
         Some(spec) => {
-            r.set_technique(id, spec).with_context(|| format!("light '{}'", light.name))?;
+            r.set_technique(id, &spec).with_context(|| format!("light '{}'", light.name))?;
             Ok(true)
         }
         None => {
@@ -213,9 +249,10 @@ fn shadow_light(r: &mut Renderer, id: LightId, specs: &[TechniqueSpec], none: &T
 fn apply(
     r: &mut Renderer,
     step: &Step,
-    specs: &[TechniqueSpec],
+    specs: &[Selected],
     none: &TechniqueSpec,
     measured: &mut Vec<LightId>,
+    auto_added: &mut Vec<Value>,
 ) -> Result<()> {
     match step {
         Step::Edit(edit) => {
@@ -225,7 +262,7 @@ fn apply(
             let applied = r.apply(Edit::AddLight(light.clone()))?;
             // The plan's dry run gave the ids the engine gives: later edits of this light use it.
             ensure!(applied.light == Some(*id), "light '{}' got id {:?}, the plan {:?}", light.name, applied.light, id);
-            if shadow_light(r, *id, specs, none)? {
+            if shadow_light(r, *id, specs, none, auto_added)? {
                 measured.push(*id);
             }
         }
@@ -273,7 +310,7 @@ fn document(
     args: &Args,
     name: &str,
     setup: &crate::args::Setup,
-    specs: &[TechniqueSpec],
+    specs: &[Selected],
     gpu: &shadowlab::Gpu,
     plan: &Plan,
     records: &[FrameRecord],
@@ -331,7 +368,7 @@ fn document(
     json!({
         "scene": setup.scene.name,
         "timeline": name,
-        "techniques": specs.iter().map(|s| s.spec.clone()).collect::<Vec<_>>(),
+        "techniques": specs.iter().map(|s| s.label().to_owned()).collect::<Vec<_>>(),
         "adapter": { "name": gpu.adapter.name, "backend": gpu.adapter.backend, "device_type": gpu.adapter.device_type },
         "width": setup.width,
         "height": setup.height,
@@ -554,7 +591,7 @@ fn report_html(doc: &Value, svg: &str) -> String {
         "<!doctype html><html><head><meta charset=\"utf-8\"><title>shadowlab play: {scene} / {timeline}</title><style>{style}</style></head><body>\
 <h1>shadowlab play: {scene} / {timeline}</h1>\
 <p>{w}×{h} pixels · techniques: {techniques} · caching {cached} · drags {drags} · adapter: {adapter} ({backend}, {dtype}) · times: {source}</p>\
-<h2>Summary</h2>{summary}\
+<h2>Summary</h2>{summary}{auto}\
 <p class=\"note\">Still frames: no event, no drag, and more than {settling} frames after the last event (the first frame, which builds every cache, counts as one). Drag frames: a drag is active. On a CPU adapter only ratios within a run (or between a cached and an uncached run) mean anything.</p>\
 <h2>Frame time and work</h2>{svg}\
 <h2>Checks</h2><p class=\"note\">The live engine against a fresh, uncached engine on the same state and surface (over each light's relevant pixels; it must be 0 for exact techniques), and against the ray-traced truth ({samples} samples; wrong = |Δ| &gt; 0.1), pooled over the shadowed lights.</p>{checks}\
@@ -574,5 +611,34 @@ fn report_html(doc: &Value, svg: &str) -> String {
         source = doc["time_source"].as_str().unwrap_or(""),
         settling = timeline::SETTLING_FRAMES,
         samples = doc["reference"]["samples"],
+        auto = auto_html(doc),
+    )
+}
+
+/// With `auto`: which light got what, and why.
+fn auto_html(doc: &Value) -> String {
+    let Some(choices) = doc["auto"].as_array() else {
+        return String::new();
+    };
+    let rows: Vec<Vec<String>> = choices
+        .iter()
+        .map(|c| {
+            vec![
+                report::escape(&format!("{} '{}'", c["light"], c["name"].as_str().unwrap_or(""))),
+                report::escape(c["spec"].as_str().unwrap_or("")),
+                fmt(&c["share_ms"], 3),
+                fmt(&c["cost_ms"], 3),
+                report::escape(c["reason"].as_str().unwrap_or("")),
+            ]
+        })
+        .collect();
+    let b = &doc["auto_budget"];
+    format!(
+        "<h2>auto: which light got what, and why</h2><p>budget {} ms × {} ({}), shared equally; figures from {}.</p>{}",
+        fmt(&b["budget_ms"], 3),
+        b["budget_factor"],
+        report::escape(b["preference"].as_str().unwrap_or("")),
+        report::escape(b["calibration"].as_str().unwrap_or("")),
+        report::table(&["light", "spec", "share ms", "cost ms", "why"], &rows)
     )
 }

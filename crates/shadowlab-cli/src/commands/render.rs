@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use shadowlab_reference::images::write_rgb_png;
 
-use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, renderer};
+use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, renderer_for};
 use crate::overlay::{Overlay, compose};
 
 #[derive(clap::Args, Debug)]
@@ -27,13 +27,18 @@ pub struct Args {
 
 pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let setup = args.scene.load()?;
-    let specs = args.techniques.specs(&["hard"])?;
+    let specs = args.techniques.selected(&setup, &["hard"])?;
     let spec = specs.first().context("no technique")?;
     if specs.len() > 1 {
-        eprintln!("warning: render uses one technique; rendering '{}'", spec.spec);
+        eprintln!("warning: render uses one technique; rendering '{}'", spec.label());
+    }
+    if let Some(plan) = spec.auto() {
+        for line in plan.describe() {
+            println!("{line}");
+        }
     }
     let gpu = open_gpu(global)?;
-    let mut r = renderer(&gpu, &setup, spec)?;
+    let mut r = renderer_for(&gpu, &setup, spec)?;
     let report = r.render()?;
     let mut image = r.read_image()?;
     if let Some(kind) = args.overlay {
@@ -41,7 +46,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         let data = r.map_overlay(light, args.grid)?.with_context(|| {
             format!(
                 "overlays need a technique that shades from one map per pixel (hard, pcf, cascaded), not '{}'",
-                spec.spec
+                spec.spec_for(light).map_or(spec.label(), |s| s.spec.as_str())
             )
         })?;
         image = compose(&image, &data, kind)?;
@@ -52,7 +57,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     write_rgb_png(&args.out, &image, setup.width, setup.height)?;
     println!(
         "{} on {}/{} at {}x{}: {} → {}",
-        spec.spec,
+        spec.label(),
         setup.scene.name,
         setup.view.name,
         setup.width,

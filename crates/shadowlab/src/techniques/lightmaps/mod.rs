@@ -63,6 +63,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::float("texel", 0.02, 0.001, 1.0, "light-map texel size on the receiver, in world units"),
         ParamDef::int("max_texels", 1024, 16, 4096, "most texels per side of one light map"),
         ParamDef::float("min_area", 1.0, 0.01, 1.0e6, "smallest flat part (m²) that gets a light map"),
+        ParamDef::int("max_maps", 64, 1, 1024, "most light maps per light (the largest flat parts keep theirs)"),
         ParamDef::bool(
             "bilinear",
             true,
@@ -604,7 +605,14 @@ impl ShadowTechnique for Lightmaps {
         let samples = self.emitter_samples(ctx.light);
         let epoch = ctx.live.epoch();
         if self.state.as_ref().is_none_or(|s| s.epoch != epoch) {
-            let patches = planar_patches(ctx.scene, self.params.float("min_area") as f32);
+            let mut patches = planar_patches(ctx.scene, self.params.float("min_area") as f32);
+            // A heightfield is a receiver of many small planes: keep the largest (layers and
+            // per-pixel lookups are bounded), the rest of the surface goes to `rest`.
+            let max_maps = self.params.int("max_maps") as usize;
+            if patches.len() > max_maps {
+                patches.sort_by(|a, b| b.area.total_cmp(&a.area).then(a.instance.cmp(&b.instance)));
+                patches.truncate(max_maps);
+            }
             let same_layout = self.state.as_ref().is_some_and(|s| {
                 s.patches.len() == patches.len() && patches.iter().zip(&s.texels).all(|(p, &t)| self.texels(p) == t)
             });

@@ -219,11 +219,16 @@ impl Renderer {
         match gpu {
             Some(t) => {
                 let fill = t.get(PassKind::Shadow);
-                self.shadows.observe(&work, fill, t.total() - fill);
+                self.shadows.observe_measured(&work, fill, t.total() - fill);
             }
-            None => self.shadows.observe(&work, f64::NAN, cpu_ms),
+            None => self.shadows.observe_measured(&work, f64::NAN, cpu_ms),
         }
         Ok(FrameReport { gpu, cpu_ms, work })
+    }
+
+    /// Shadows `light` with a quality ladder (see [`Shadows::set_ladder`]).
+    pub fn set_ladder(&mut self, light: LightId, specs: &[TechniqueSpec]) -> Result<(), TechniqueError> {
+        self.shadows.set_ladder(light, specs, self.width, self.height)
     }
 
     /// Spreads the shadows' cache fills over frames to keep to `target_ms` (see
@@ -706,7 +711,7 @@ impl Renderer {
     /// the texel-grid lines in texels.
     pub fn map_overlay(&self, light: LightId, grid: u32) -> Result<Option<MapOverlay>, GpuError> {
         let Some(s) = self.shadows.lights.iter().find(|s| s.light == light) else { return Ok(None) };
-        let Some(maps) = s.technique.analysis() else { return Ok(None) };
+        let Some(maps) = s.shown_technique().analysis() else { return Ok(None) };
         let shared = self.shadows.shared();
         let device = &self.gpu.device;
         let (w, h) = (self.width, self.height);

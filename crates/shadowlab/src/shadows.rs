@@ -14,7 +14,7 @@ use crate::context::Shared;
 use crate::frame::{LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
-use crate::live::scheduler::{Budget, CostModel};
+use crate::live::scheduler::{Adaptation, Budget, CostModel, Step};
 use crate::live::temporary::TemporaryShadows;
 use crate::live::validity::screen_signature;
 use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Signature, Work};
@@ -27,20 +27,28 @@ use crate::util;
 /// open): a tenth, against the prediction's errors.
 const BUDGET_MARGIN: f64 = 0.1;
 
-/// One light's shadowing: its technique and its visibility layer.
-pub(crate) struct LightShadow {
-    pub light: LightId,
+/// One rung of a light's quality ladder: a technique with its own caches.
+pub(crate) struct Rung {
     pub spec: TechniqueSpec,
     pub technique: Box<dyn ShadowTechnique>,
-    pub layer: VisibilityLayer,
-    pub light_buffer: wgpu::Buffer,
     /// The technique's owner id in the cache.
     owner: u32,
+}
+
+/// One light's shadowing: its ladder of techniques and its visibility layer.
+pub(crate) struct LightShadow {
+    pub light: LightId,
+    /// From the cheapest to the best; with one rung, the light's technique.
+    pub rungs: Vec<Rung>,
+    /// The rung shown in the last frame (`None`: unshadowed).
+    pub shown: Option<usize>,
+    pub layer: VisibilityLayer,
+    pub light_buffer: wgpu::Buffer,
     /// The light's colour version its uniform was written from (emitter edits bump it too).
     uniform_version: u64,
-    /// What the layer was last resolved from ([`screen_signature`]): with it unchanged and nothing
-    /// re-rendered, the layer still holds (a still frame costs no lookup).
-    resolved: Option<Signature>,
+    /// What the layer was last resolved from ([`screen_signature`], and the rung): with it
+    /// unchanged and nothing re-rendered, the layer still holds (a still frame costs no lookup).
+    resolved: Option<(Signature, usize)>,
     /// The temporary (dragged) objects' maps for this light: each light its own, since every
     /// light's views are written before the frame's commands run.
     temporary: TemporaryShadows,
@@ -50,6 +58,18 @@ pub(crate) struct LightShadow {
     /// upgrades (see [`ShadowTechnique::progress`]); and the emitter samples behind it.
     level: u32,
     samples: u32,
+}
+
+impl LightShadow {
+    /// The light's best rung (its technique, with one rung).
+    pub fn top(&self) -> &Rung {
+        self.rungs.last().expect("a ladder has a rung")
+    }
+
+    /// The technique shown in the last frame (the best rung before the first frame).
+    pub fn shown_technique(&self) -> &dyn ShadowTechnique {
+        self.rungs[self.shown.unwrap_or(self.rungs.len() - 1)].technique.as_ref()
+    }
 }
 
 /// Shadows for every light of a scene over one surface: what an application embeds.
@@ -67,6 +87,9 @@ pub struct Shadows {
     render_ms: Option<f64>,
     /// Costs and render time are scripted: measurements leave them.
     scripted: bool,
+    /// The rungs every light may use (frame-rate adaptation lowers it under a target).
+    cap: usize,
+    adaptation: Adaptation,
     frame_index: u64,
     /// Instances changed since the GPU copy was written.
     instances_dirty: bool,
@@ -88,6 +111,8 @@ impl Shadows {
             target_ms: None,
             render_ms: None,
             scripted: false,
+            cap: usize::MAX,
+            adaptation: Adaptation::default(),
             frame_index: 0,
             instances_dirty: false,
             size: (0, 0),
@@ -123,9 +148,14 @@ impl Shadows {
         self.lights.iter().find(|s| s.light == light).map(|s| &s.layer)
     }
 
-    /// The technique spec of a shadowed light, as given.
+    /// The technique spec of a shadowed light, as given (its best rung's).
     pub fn spec(&self, light: LightId) -> Option<&TechniqueSpec> {
-        self.lights.iter().find(|s| s.light == light).map(|s| &s.spec)
+        self.lights.iter().find(|s| s.light == light).map(|s| &s.top().spec)
+    }
+
+    /// The specs of a light's quality ladder, from the cheapest to the best.
+    pub fn ladder(&self, light: LightId) -> Vec<&TechniqueSpec> {
+        self.lights.iter().filter(|s| s.light == light).flat_map(|s| s.rungs.iter().map(|r| &r.spec)).collect()
     }
 
     /// Shadows `light` with the technique of `spec` (replacing its previous one), writing a layer
@@ -137,33 +167,60 @@ impl Shadows {
         width: u32,
         height: u32,
     ) -> Result<(), TechniqueError> {
+        self.set_ladder(light, std::slice::from_ref(spec), width, height)
+    }
+
+    /// Shadows `light` with a quality ladder (Toromanoff 2005 §VII.2: hard, then smoothies, then
+    /// sampled): from the cheapest technique to the best. Every rung keeps its own caches; the
+    /// light shows the best rung that is complete (and allowed by the frame-rate adaptation), so
+    /// that with a target frame time a cheap shadow shows at once and better ones replace it as
+    /// their fills finish.
+    pub fn set_ladder(
+        &mut self,
+        light: LightId,
+        specs: &[TechniqueSpec],
+        width: u32,
+        height: u32,
+    ) -> Result<(), TechniqueError> {
         let l = self.live.light(light).ok_or_else(|| TechniqueError::Failed {
-            id: spec.info.id.to_owned(),
+            id: specs.first().map_or("ladder", |s| s.info.id).to_owned(),
             message: format!("no light {}", light.0),
         })?;
-        let technique = spec.create(&self.shared, l)?;
+        if specs.is_empty() {
+            return Err(TechniqueError::Failed { id: "ladder".into(), message: "a ladder needs a technique".into() });
+        }
+        let mut rungs = Vec::with_capacity(specs.len());
+        for spec in specs {
+            let technique = spec.create(&self.shared, l)?;
+            rungs.push((spec.clone(), technique));
+        }
         let device = &self.shared.gpu.device;
         let light_buffer = util::uniform_buffer(device, &l.name, bytemuck::bytes_of(&LightUniform::new(l)));
         let layer = VisibilityLayer::new(device, width, height, &format!("visibility {}", l.name));
         let uniform_version = self.live.light_state(light).map_or(0, |s| s.colour_version);
+        let unshadowed = TechniqueSpec::parse("none", &[])
+            .and_then(|none| none.create(&self.shared, l))
+            .expect("`none` supports every light");
         if let Some(old) = self.lights.iter().find(|s| s.light == light) {
-            self.cache.forget_owner(old.owner);
+            for r in &old.rungs {
+                self.cache.forget_owner(r.owner);
+            }
         }
         self.lights.retain(|s| s.light != light);
-        let owner = self.cache.new_owner();
+        let rungs = rungs
+            .into_iter()
+            .map(|(spec, technique)| Rung { spec, technique, owner: self.cache.new_owner() })
+            .collect();
         self.lights.push(LightShadow {
             light,
-            spec: spec.clone(),
-            technique,
+            rungs,
+            shown: None,
             layer,
             light_buffer,
-            owner,
             uniform_version,
             resolved: None,
             temporary: TemporaryShadows::new(&self.shared),
-            unshadowed: TechniqueSpec::parse("none", &[])
-                .and_then(|none| none.create(&self.shared, l))
-                .expect("`none` supports every light"),
+            unshadowed,
             level: 0,
             samples: 0,
         });
@@ -233,6 +290,34 @@ impl Shadows {
             let r = self.render_ms.get_or_insert(render_ms);
             *r += 0.25 * (render_ms - *r);
         }
+        // Frame-rate adaptation (alg. 15): with a target, the rungs every light may use follow the
+        // measured frame time, with hysteresis.
+        let frame = if fill_ms.is_finite() { fill_ms + render_ms } else { render_ms };
+        let most = self.lights.iter().map(|s| s.rungs.len()).max().unwrap_or(1);
+        if let Some(target) = self.target_ms
+            && most > 1
+            && frame.is_finite()
+        {
+            let cap = self.cap.min(most);
+            self.cap = match self.adaptation.step(frame, target) {
+                Step::Down => cap.saturating_sub(1).max(1),
+                Step::Up => (cap + 1).min(most),
+                Step::Stay => cap,
+            };
+        }
+    }
+
+    /// The rungs every light may use now (frame-rate adaptation lowers it under a target).
+    pub fn quality_cap(&self) -> usize {
+        self.cap
+    }
+
+    /// [`Shadows::observe`] for measurements the engine took itself (the renderer's timestamps):
+    /// ignored under a scripted clock, where only explicit observations count.
+    pub fn observe_measured(&mut self, work: &Work, fill_ms: f64, render_ms: f64) {
+        if !self.scripted {
+            self.observe(work, fill_ms, render_ms);
+        }
     }
 
     /// The costs the scheduler predicts with.
@@ -240,8 +325,9 @@ impl Shadows {
         &self.costs
     }
 
-    /// Replaces the cost model and the predicted render time (a scripted clock: with
-    /// [`CostModel::scripted`] measurements change neither).
+    /// Replaces the cost model and the predicted render time: a scripted clock, under which the
+    /// renderer's own measurements change neither costs nor levels (only explicit
+    /// [`Shadows::observe`] calls do).
     pub fn script_costs(&mut self, costs: CostModel, render_ms: f64) {
         self.costs = costs;
         self.render_ms = Some(render_ms);
@@ -252,7 +338,13 @@ impl Shadows {
     /// technique's base, higher its upgrades; whether that shows the current state; and the emitter
     /// samples behind it (0 where that means nothing).
     pub fn levels(&self) -> Vec<(LightId, u32, bool, u32)> {
-        self.lights.iter().map(|s| (s.light, s.level, s.level > 0 && s.technique.current(), s.samples)).collect()
+        self.lights
+            .iter()
+            .map(|s| {
+                let top = s.shown == Some(s.rungs.len() - 1);
+                (s.light, s.level, top && s.shown_technique().current(), s.samples)
+            })
+            .collect()
     }
 
     /// Keeps shadow items across frames (the default), or rebuilds every item every frame.
@@ -279,9 +371,11 @@ impl Shadows {
     pub fn fresh(&self) -> Result<Shadows, TechniqueError> {
         let mut fresh = Shadows::new(&self.shared.gpu, self.scene().clone());
         fresh.set_caching(false);
+        fresh.cap = self.cap;
         for s in &self.lights {
             let index = self.live.light_index(s.light).expect("shadowed lights exist");
-            fresh.set_technique(LightId(index as u32), &s.spec, s.layer.texture.width(), s.layer.texture.height())?;
+            let specs: Vec<TechniqueSpec> = s.rungs.iter().map(|r| r.spec.clone()).collect();
+            fresh.set_ladder(LightId(index as u32), &specs, s.layer.texture.width(), s.layer.texture.height())?;
         }
         Ok(fresh)
     }
@@ -318,8 +412,60 @@ impl Shadows {
             Some(target) => Budget::for_frame(target, self.render_ms.unwrap_or(0.0), BUDGET_MARGIN),
             None => Budget::unlimited(),
         };
-        for s in &mut self.lights {
+        // Rung by rung across the lights (Toromanoff alg. 13: every light's cheap shadow before
+        // anyone's upgrade), each rung's fills within the frame's budget.
+        let rungs = self.lights.iter().map(|s| s.rungs.len()).max().unwrap_or(0).min(self.cap.max(1));
+        let mut rebuilt = vec![false; self.lights.len()];
+        for r in 0..rungs {
+            for (k, s) in self.lights.iter_mut().enumerate() {
+                let Some(rung) = s.rungs.get_mut(r) else { continue };
+                let Some(light) = self.live.light(s.light) else { continue };
+                let mut ctx = FrameContext {
+                    gpu: &gpu,
+                    shared: &self.shared,
+                    encoder,
+                    scene: self.live.scene(),
+                    gpu_scene: &self.gpu_scene,
+                    surface,
+                    light,
+                    light_id: s.light,
+                    light_buffer: &s.light_buffer,
+                    timer,
+                    frame_index: self.frame_index,
+                    live: &self.live,
+                    cache: &mut self.cache,
+                    owner: rung.owner,
+                    budget: &mut budget,
+                    costs: &self.costs,
+                };
+                let before = ctx.cache.work;
+                rung.technique.prepare(&mut ctx)?;
+                let w = ctx.cache.work;
+                rebuilt[k] |= (w.map_views, w.lightmap_samples, w.volume_objects, w.temporary_views)
+                    != (before.map_views, before.lightmap_samples, before.volume_objects, before.temporary_views);
+            }
+        }
+        let temporary = TemporaryShadows::active(&self.live);
+        for (k, s) in self.lights.iter_mut().enumerate() {
             let Some(light) = self.live.light(s.light) else { continue };
+            // The best allowed rung with something complete to show; none: unshadowed.
+            let shown = (0..s.rungs.len().min(rungs)).rev().find(|&r| s.rungs[r].technique.shown());
+            let now = (screen_signature(&self.live, s.light, surface.generation()), shown.unwrap_or(usize::MAX));
+            if self.cache.enabled() && !rebuilt[k] && !temporary && s.resolved.as_ref() == Some(&now) {
+                continue;
+            }
+            self.cache.work.resolves += 1;
+            s.shown = shown;
+            let (level, samples) = match shown {
+                Some(r) => {
+                    let (p, samples) = s.rungs[r].technique.progress();
+                    (r as u32 + p, samples)
+                }
+                None => (0, 0),
+            };
+            (s.level, s.samples) = (level, samples);
+            s.resolved = shown.map(|_| now);
+            let owner = shown.map_or(0, |r| s.rungs[r].owner);
             let mut ctx = FrameContext {
                 gpu: &gpu,
                 shared: &self.shared,
@@ -334,29 +480,14 @@ impl Shadows {
                 frame_index: self.frame_index,
                 live: &self.live,
                 cache: &mut self.cache,
-                owner: s.owner,
+                owner,
                 budget: &mut budget,
                 costs: &self.costs,
             };
-            let before = ctx.cache.work;
-            s.technique.prepare(&mut ctx)?;
-            let rebuilt = {
-                let w = ctx.cache.work;
-                (w.map_views, w.lightmap_samples, w.volume_objects, w.temporary_views)
-                    != (before.map_views, before.lightmap_samples, before.volume_objects, before.temporary_views)
+            let technique: &mut dyn ShadowTechnique = match shown {
+                Some(r) => s.rungs[r].technique.as_mut(),
+                None => s.unshadowed.as_mut(),
             };
-            let now = screen_signature(&self.live, s.light, surface.generation());
-            let temporary = TemporaryShadows::active(&self.live);
-            if ctx.cache.enabled() && !rebuilt && !temporary && s.resolved.as_ref() == Some(&now) {
-                continue;
-            }
-            ctx.cache.work.resolves += 1;
-            // Nothing complete to show yet (a fill spread over frames from nothing): unshadowed.
-            let shown = s.technique.shown();
-            s.level = if shown { s.technique.progress().0 } else { 0 };
-            s.samples = if shown { s.technique.progress().1 } else { 0 };
-            s.resolved = if shown { Some(now) } else { None };
-            let technique: &mut dyn ShadowTechnique = if shown { s.technique.as_mut() } else { s.unshadowed.as_mut() };
             if temporary {
                 let raw = s.temporary.raw_layer(&self.shared, surface.width, surface.height);
                 technique.resolve(&mut ctx, raw);
@@ -375,19 +506,22 @@ impl Shadows {
 
     /// Memory, passes and draws of all techniques together.
     pub fn stats(&self) -> TechniqueStats {
-        self.lights.iter().fold(TechniqueStats::default(), |a, s| {
-            let t = s.technique.stats();
-            let light = self.live.light(s.light).map_or("?", |l| l.name.as_str());
-            let mut extra = a.extra;
-            extra.extend(t.extra.into_iter().map(|(k, v)| (format!("{light}: {k}"), v)));
-            TechniqueStats {
-                memory_bytes: a.memory_bytes + t.memory_bytes + s.layer.bytes(),
-                passes: a.passes + t.passes,
-                draws: a.draws + t.draws,
-                triangles: a.triangles + t.triangles,
-                extra,
-            }
-        })
+        self.lights.iter().flat_map(|s| s.rungs.iter().map(move |r| (s, r))).fold(
+            TechniqueStats::default(),
+            |a, (s, r)| {
+                let t = r.technique.stats();
+                let light = self.live.light(s.light).map_or("?", |l| l.name.as_str());
+                let mut extra = a.extra;
+                extra.extend(t.extra.into_iter().map(|(k, v)| (format!("{light}: {k}"), v)));
+                TechniqueStats {
+                    memory_bytes: a.memory_bytes + t.memory_bytes + s.layer.bytes(),
+                    passes: a.passes + t.passes,
+                    draws: a.draws + t.draws,
+                    triangles: a.triangles + t.triangles,
+                    extra,
+                }
+            },
+        )
     }
 
     /// GPU bytes held for shadows: every technique's maps and buffers, the visibility layers and

@@ -155,3 +155,51 @@ fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
     let fresh = r.fresh_visibility().unwrap();
     assert!(live[0].1 == fresh[0].1, "sixteen samples accumulated over frames equal sixteen at once");
 }
+
+/// A ladder (Toromanoff §VII.2: a cheap shadow at once, better ones as they are filled): `hard`
+/// then light maps. The light shows hard shadows within the first frames, then the light maps'
+/// rungs; levels never go down in a still scene; at the end it equals a fresh engine on the same
+/// ladder (which shows the best rung). Frames over the target then step the quality cap down (with
+/// hysteresis), and the light shows its hard shadows again.
+#[test]
+fn a_ladder_climbs_from_hard_shadows_to_light_maps_and_steps_down_when_frames_are_slow() {
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let ladder = [
+        TechniqueSpec::parse("hard:map_size=256", &[]).unwrap(),
+        TechniqueSpec::parse("lightmaps:samples=16,texel=0.05,rest=hard", &[]).unwrap(),
+    ];
+    r.shadows.set_ladder(LightId(0), &ladder, 48, 36).unwrap();
+    let costs = CostModel::scripted(&[(UnitKind::MapView, 1.0), (UnitKind::LightMapSample, 1.0)]);
+    r.shadows.script_costs(costs, 10.0);
+    r.set_target_ms(Some(16.0));
+    let mut levels = Vec::new();
+    for frame in 0..300 {
+        r.render().unwrap();
+        let (_, level, current, _) = r.shadows.levels()[0];
+        if let Some(&last) = levels.last() {
+            assert!(level >= last, "frame {frame}: level {last} → {level}");
+        }
+        levels.push(level);
+        if current {
+            break;
+        }
+    }
+    println!("ladder levels: {levels:?}");
+    // 0 until the six hard faces are in (four 1 ms views a frame in a 4.4 ms budget: two frames),
+    // 1 with hard shadows, 2 once the light maps' own hard maps are in, 3 and 4 when every lit
+    // receiver has 4 and 16 samples.
+    assert_eq!(levels.last(), Some(&4), "{levels:?}");
+    assert!(levels.contains(&1) && levels.iter().position(|&l| l == 1) < levels.iter().position(|&l| l >= 2));
+    let fresh = r.fresh_visibility().unwrap();
+    assert!(fresh[0].1 == r.live_visibility().unwrap()[0].1, "the best rung equals a fresh engine's");
+    // Three frames over the target: one rung down (hard shadows shown).
+    let work = shadowlab::Work::default();
+    for _ in 0..3 {
+        r.shadows.observe(&work, 0.0, 100.0);
+    }
+    assert_eq!(r.shadows.quality_cap(), 1);
+    r.render().unwrap();
+    assert_eq!(r.shadows.levels()[0].1, 1, "the cheap rung is shown");
+}

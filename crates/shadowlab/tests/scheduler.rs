@@ -203,3 +203,36 @@ fn a_ladder_climbs_from_hard_shadows_to_light_maps_and_steps_down_when_frames_ar
     r.render().unwrap();
     assert_eq!(r.shadows.levels()[0].1, 1, "the cheap rung is shown");
 }
+
+/// Volumes (Toromanoff alg. 14): one object's volumes is a unit; a light is shadowed by volumes only
+/// once every object's are extracted, then equals a fresh engine.
+#[test]
+fn volumes_are_extracted_a_few_objects_a_frame_and_shown_when_all_are_in() {
+    let scene = load_scene("room").unwrap().scene;
+    let casters = scene.instances.iter().filter(|i| i.casts_shadows).count() as u32;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    r.set_technique(LightId(0), &TechniqueSpec::parse("volumes", &[]).unwrap()).unwrap();
+    // 1 ms an object, 10 ms rendering: a 16 ms target leaves 4.4 ms, four objects a frame.
+    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::VolumeObject, 1.0)]), 10.0);
+    r.set_target_ms(Some(16.0));
+    let mut frames = 0;
+    let mut extracted = 0;
+    loop {
+        let w = r.render().unwrap().work;
+        frames += 1;
+        assert!(w.volume_objects <= 4, "frame {frames}: {w:?}");
+        extracted += w.volume_objects;
+        let level = r.shadows.levels()[0].1;
+        if extracted < casters {
+            assert_eq!(level, 0, "frame {frames}: shown with {extracted} of {casters} objects");
+        } else {
+            assert_eq!(level, 1, "frame {frames}: every object is in");
+            break;
+        }
+        assert!(frames < 50);
+    }
+    assert_eq!(frames, casters.div_ceil(4), "{casters} objects, four a frame");
+    let fresh = r.fresh_visibility().unwrap();
+    assert!(fresh[0].1 == r.live_visibility().unwrap()[0].1);
+}

@@ -1104,12 +1104,14 @@ impl ShadowTechnique for Volumes {
         self.frames += 1;
     }
 
+    /// Shown once every object's volumes were extracted (alg. 14: a light is shadowed by volumes
+    /// only when all its objects' are ready); later updates are atomic per object.
     fn shown(&self) -> bool {
-        self.receivers.as_ref().is_none_or(|r| r.map.shown())
+        self.store.as_ref().is_some_and(|s| s.complete_once) && self.receivers.as_ref().is_none_or(|r| r.map.shown())
     }
 
     fn current(&self) -> bool {
-        self.receivers.as_ref().is_none_or(|r| r.map.current())
+        self.store.as_ref().is_some_and(|s| s.current) && self.receivers.as_ref().is_none_or(|r| r.map.current())
     }
 
     fn stats(&self) -> TechniqueStats {

@@ -112,6 +112,10 @@ pub(super) struct Store {
     /// Per batch: its uniform (made as batches are needed).
     batches: Vec<wgpu::Buffer>,
     checked: Option<Checked>,
+    /// Whether every item has been extracted once (before, the light shows no volumes), and
+    /// whether none is stale now (the budget may leave some for later frames).
+    pub complete_once: bool,
+    pub current: bool,
     pub bytes: u64,
 }
 
@@ -242,6 +246,8 @@ impl Store {
             signs,
             batches: Vec::new(),
             checked: None,
+            complete_once: false,
+            current: false,
             bytes,
         };
         let placed = store.place(ctx, topology, casters);
@@ -369,9 +375,11 @@ impl Store {
         let n_items = (sources.len() * casters.len()) as u32;
         if ctx.cache.enabled() && self.checked == Some(now) {
             ctx.cache.work.reused += n_items;
+            self.current = true;
             return Ok(0);
         }
         let mut jobs: Vec<Job> = Vec::new();
+        let mut deferred = false;
         for (s, source) in sources.iter().enumerate() {
             let light = source.to_vec4();
             for (c, &slot_index) in casters.iter().zip(&self.slot_of) {
@@ -396,6 +404,11 @@ impl Store {
                     ctx.cache.work.reused += 1;
                     continue;
                 }
+                // One object's volumes for one light sample is a unit of the frame's budget (alg. 14).
+                if !ctx.budget.take(ctx.costs.predict(crate::live::scheduler::UnitKind::VolumeObject)) {
+                    deferred = true;
+                    continue;
+                }
                 let m = &topology.meshes[c.mesh];
                 jobs.push(Job {
                     model: glam::Mat4::from(c.transform),
@@ -410,7 +423,10 @@ impl Store {
                 ctx.cache.work.volume_objects += 1;
             }
         }
-        self.checked = Some(Checked { cache_generation: ctx.cache.generation(), ..now });
+        // With items left for later frames, look again next frame.
+        self.checked = (!deferred).then_some(Checked { cache_generation: ctx.cache.generation(), ..now });
+        self.current = !deferred;
+        self.complete_once |= !deferred;
         if jobs.is_empty() {
             return Ok(0);
         }

@@ -173,6 +173,161 @@ fn built_in_timelines_pick_names_the_scene_has() {
     // `columns` has no 'chair east': its first dynamic object is dragged.
     let got = events(&shadowlab(&["play", "--scene", "columns", "--timeline", "drag", "--dry-run"]));
     assert!(got[1].1[0].starts_with("drag '"), "{got:?}");
+    // `startup` and `resize` need no names: any scene; `resize` grows `--size` by half and goes back.
+    for scene in ["room", "columns", "terrain"] {
+        let out = shadowlab(&["play", "--scene", scene, "--timeline", "startup", "--dry-run"]);
+        assert_eq!(events(&out), [(0, vec!["start".to_owned()])], "{scene}");
+        let out = shadowlab(&["play", "--scene", scene, "--timeline", "resize", "--size", "64x48", "--dry-run"]);
+        let got = events(&out);
+        assert_eq!(got[1..], [(40, vec!["resize 96x72".to_owned()]), (80, vec!["resize 64x48".to_owned()])], "{scene}");
+    }
+}
+
+/// `--target-ms` takes `auto` or a number of ms above 0; anything else is a usage error (exit code
+/// 2, from the argument parser) before the timeline is even read. `--preference` scales the target.
+#[test]
+fn target_ms_is_auto_or_a_positive_number() {
+    let dry = |extra: &[&str]| {
+        let mut args = vec!["play", "--timeline", "startup", "--dry-run"];
+        args.extend_from_slice(extra);
+        shadowlab(&args)
+    };
+    let target = |out: &Output| {
+        ok(out);
+        serde_json::from_slice::<Value>(&out.stdout).unwrap()["target"].clone()
+    };
+    assert_eq!(target(&dry(&["--target-ms", "auto"]))["given"], "auto");
+    assert_eq!(target(&dry(&["--target-ms", "12.5"]))["given"].as_f64(), Some(12.5));
+    assert!(target(&dry(&[])).is_null());
+    let t = target(&dry(&["--target-ms", "12.5", "--preference", "speed"]));
+    assert_eq!((t["preference"].as_str(), t["preference_factor"].as_f64()), (Some("speed"), Some(0.5)));
+    for (value, message) in [
+        ("garbage", "'garbage' is neither a number of ms nor `auto`"),
+        ("-1", "-1 ms is not a frame time"),
+        ("0", "0 ms is not a frame time"),
+        ("inf", "inf ms is not a frame time"),
+        ("", "'' is neither a number of ms nor `auto`"),
+    ] {
+        let out = dry(&["--target-ms", value]);
+        assert_eq!(out.status.code(), Some(2), "--target-ms {value:?}: {}", text(&out.stderr));
+        assert!(text(&out.stderr).contains(message), "--target-ms {value:?}: {}", text(&out.stderr));
+    }
+    // `--preference` alone means nothing for a plain technique.
+    let out = dry(&["--preference", "quality"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("--preference goes with --technique auto"), "{}", text(&out.stderr));
+}
+
+/// Levels of every light per frame, from timeline.json: `[frame][light] = (level, current)`.
+fn levels(t: &Value) -> Vec<Vec<(u64, bool)>> {
+    t["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            f["lights"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|l| (l["level"].as_u64().unwrap(), l["current"].as_bool().unwrap()))
+                .collect()
+        })
+        .collect()
+}
+
+/// `startup` with a target far below what one map view costs: the budget admits one unit a frame,
+/// so the fill from empty caches is spread over the first frames, each light unshadowed (level 0)
+/// until all of its views are done, then at its base level (1 for `hard`), never going back down.
+#[test]
+fn a_target_spreads_the_startup_fill_over_frames() {
+    let dir = temp("target");
+    let t = play_with(&dir, "startup", "hard:map_size=128", &["--target-ms", "0.5", "--check-every", "60"]);
+    assert_eq!(t["target_ms"].as_f64(), Some(0.5));
+    assert_eq!(t["target"]["given"].as_f64(), Some(0.5));
+    let frames = t["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 120);
+    for f in frames {
+        for key in ["budget_ms", "planned_ms", "work_ms", "deferred", "lights"] {
+            assert!(f.get(key).is_some(), "frame lacks '{key}': {f}");
+        }
+        // Budget = target − predicted render − 10% margin, in [0, 0.9 × the target] (measured 0.45
+        // on frame 0, before any render time is known, then 0).
+        let budget = f["budget_ms"].as_f64().unwrap_or_else(|| panic!("a budget with a target: {f}"));
+        assert!((0.0..=0.45 + 1e-9).contains(&budget), "{f}");
+        assert!(f["planned_ms"].as_f64().unwrap() >= 0.0, "{f}");
+        assert!(f["work_ms"].is_null() || f["work_ms"].as_f64().unwrap() >= 0.0, "{f}");
+        for l in f["lights"].as_array().unwrap() {
+            for key in ["light", "index", "level", "technique", "samples", "current"] {
+                assert!(!l[key].is_null(), "light lacks '{key}': {l}");
+            }
+            assert_eq!(l["technique"], "hard:map_size=128");
+        }
+    }
+    let levels = levels(&t);
+    // The room's four lights, each shadowed.
+    assert!(levels.iter().all(|l| l.len() == 4), "{levels:?}");
+    // Measured at 0.5 ms on llvmpipe: all four lights at level 0 on frame 0, the last one reaches
+    // level 1 on frame 13 (18 map views over the run, one or two a frame).
+    assert!(levels[0].iter().any(|&(level, _)| level == 0), "some light starts unshadowed: {:?}", levels[0]);
+    assert!(levels.last().unwrap().iter().all(|&l| l == (1, true)), "all at the base level: {:?}", levels.last());
+    for k in 0..4 {
+        let mut previous = 0;
+        for (f, frame) in levels.iter().enumerate() {
+            assert!(frame[k].0 >= previous, "light {k} went down on frame {f}: {levels:?}");
+            previous = frame[k].0;
+        }
+    }
+    // Work was left for later frames early on (measured 13 units deferred on frame 0).
+    assert!(frames[..3].iter().any(|f| f["deferred"].as_u64().unwrap() > 0), "{}", frames[0]);
+    let s = &t["summary"];
+    // Measured 13: more than 0 since the first frame cannot fill every light, and within the run.
+    let full = s["frames_to_full_quality"].as_u64().unwrap_or_else(|| panic!("never at full quality: {s}"));
+    assert!(full > 0 && full < 120, "{s}");
+    assert!(
+        levels[full as usize].iter().all(|&l| l == (1, true)) && levels[full as usize - 1] != levels[full as usize]
+    );
+    assert_eq!(s["full_quality_after_events"][0]["frames_to_full_quality"].as_u64(), Some(full));
+    // Each light that started at 0 switched once, to 1 (measured 4), and never again.
+    let started_dark = levels[0].iter().filter(|l| l.0 == 0).count() as u64;
+    assert_eq!(s["level_switches"].as_u64(), Some(started_dark), "{s}");
+    // Times are not asserted (measured on llvmpipe: 7.4 ms still frames, the worst frame 55–65× the
+    // target, all 120 frames over it): only that they are reported.
+    assert!(s["max_frame_over_target"].as_f64().unwrap() > 0.0, "{s}");
+    assert!(s["frames_over_target"].as_u64().unwrap() <= 120, "{s}");
+    // Checks on frames 0, 1 (after the start) and 60: while lights are still unshadowed the live
+    // engine differs from a fresh one by design; once every light is current, `hard` equals it
+    // exactly.
+    let checks = t["checks"].as_array().unwrap();
+    let at: Vec<(u64, bool)> =
+        checks.iter().map(|c| (c["frame"].as_u64().unwrap(), c["current"].as_bool().unwrap())).collect();
+    assert_eq!(at, [(0, false), (1, false), (60, true)]);
+    assert!(checks[0]["rmse_vs_fresh"].as_f64().unwrap() > 0.0, "{}", checks[0]);
+    assert_eq!(checks[2]["rmse_vs_fresh"].as_f64(), Some(0.0), "{}", checks[2]);
+    assert_eq!(
+        (s["max_rmse_vs_fresh_current"].as_f64(), s["max_abs_vs_fresh_current"].as_f64()),
+        (Some(0.0), Some(0.0))
+    );
+    let svg = std::fs::read_to_string(dir.join("out").join("timeline.svg")).unwrap();
+    assert!(svg.contains("target 0.50 ms (dashed)") && svg.contains("ceiling lamp (hard:map_size=128)"));
+}
+
+/// Without `--target-ms` nothing is spread: no target, no budget, nothing deferred, every light at
+/// its base level from the first frame.
+#[test]
+fn without_a_target_every_fill_is_done_in_its_frame() {
+    let dir = temp("no-target");
+    let file = timeline_file(&dir, "still", "frames = 4\n");
+    let t = play_with(&dir, &file, "hard:map_size=128", &["--check-every", "0"]);
+    assert!(t["target_ms"].is_null() && t["target"].is_null(), "{}", t["target"]);
+    for f in t["frames"].as_array().unwrap() {
+        assert!(f["budget_ms"].is_null(), "{f}");
+        assert_eq!(f["deferred"].as_u64(), Some(0), "{f}");
+    }
+    assert!(levels(&t).iter().all(|frame| frame.iter().all(|&l| l == (1, true))), "{:?}", levels(&t));
+    let s = &t["summary"];
+    assert_eq!(s["frames_to_full_quality"].as_u64(), Some(0), "{s}");
+    assert_eq!(s["level_switches"].as_u64(), Some(0), "{s}");
+    assert!(s["max_frame_over_target"].is_null() && s["frames_over_target"].is_null(), "{s}");
 }
 
 /// Every error of the format, with its exact message, as the user sees it (exit code 1, no panic).
@@ -342,7 +497,7 @@ fn every_error_has_a_clear_message() {
     for (args, message) in [
         (
             vec!["play", "--timeline", "dance", "--dry-run"],
-            "error: no built-in timeline 'dance' (built in: drag, lights, walk; or a .toml file)",
+            "error: no built-in timeline 'dance' (built in: drag, lights, walk, startup, resize; or a .toml file)",
         ),
         (
             vec!["play", "--scene", "penumbra", "--timeline", "drag", "--dry-run"],
@@ -387,6 +542,11 @@ fn garbage_files_give_errors() {
 
 /// Runs `play` with `extra` arguments at 48×36 with small hard maps; returns timeline.json.
 fn play(dir: &Path, timeline: &str, extra: &[&str]) -> Value {
+    play_with(dir, timeline, "hard:map_size=256", extra)
+}
+
+/// [`play`] with another technique.
+fn play_with(dir: &Path, timeline: &str, technique: &str, extra: &[&str]) -> Value {
     let out_dir = dir.join("out");
     let mut args = vec![
         "play",
@@ -397,7 +557,7 @@ fn play(dir: &Path, timeline: &str, extra: &[&str]) -> Value {
         "--size",
         "48x36",
         "--technique",
-        "hard:map_size=256",
+        technique,
         "--samples",
         "16",
         "--out",
@@ -515,6 +675,8 @@ range = 4.0
     let at: Vec<u64> = checks.iter().map(|c| c["frame"].as_u64().unwrap()).collect();
     assert_eq!(at, [0, 1, 4, 5, 8, 9, 10, 11, 12, 15, 16, 17, 18, 19, 20, 21]);
     for c in checks {
+        // No target: every light current on every frame.
+        assert_eq!(c["current"].as_bool(), Some(true), "{c}");
         // `hard` keeps exactly the maps a fresh engine renders: equal, not close.
         assert_eq!(c["rmse_vs_fresh"].as_f64(), Some(0.0), "{c}");
         assert_eq!(c["max_abs_vs_fresh"].as_f64(), Some(0.0), "{c}");
@@ -585,4 +747,27 @@ fn drags_as_temporary_objects_keep_the_maps_that_permanent_moves_re_render() {
     // Over the whole timeline: the cached run re-renders a fraction of the uncached run's views.
     let total = |t: &Value| t["summary"]["map_views_total"].as_u64().unwrap();
     assert!(total(&temporary) < total(&permanent) && total(&permanent) < total(&uncached));
+}
+
+/// `--target-ms auto`: 2 × the median of 10 uncached frames with `hard` on every light, scaled by
+/// `--preference` (speed: × 0.5), written with where it came from.
+#[test]
+fn an_auto_target_is_twice_the_hard_frame() {
+    let dir = temp("auto-target");
+    let file = timeline_file(&dir, "still", "frames = 2\n");
+    let t = play_with(
+        &dir,
+        &file,
+        "hard:map_size=128",
+        &["--check-every", "0", "--target-ms", "auto", "--preference", "speed"],
+    );
+    let target = &t["target"];
+    assert_eq!(target["given"], "auto");
+    assert_eq!((target["hard_frames"].as_u64(), target["auto_factor"].as_f64()), (Some(10), Some(2.0)));
+    assert_eq!((target["preference"].as_str(), target["preference_factor"].as_f64()), (Some("speed"), Some(0.5)));
+    assert_eq!(target["hard_frame_source"], t["time_source"]);
+    let hard = target["hard_frame_ms"].as_f64().unwrap();
+    let ms = t["target_ms"].as_f64().unwrap();
+    assert!(hard > 0.0 && (ms - 2.0 * hard * 0.5).abs() < 1e-9 * ms, "{target}");
+    assert_eq!(target["target_ms"].as_f64(), Some(ms));
 }

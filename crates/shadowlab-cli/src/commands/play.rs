@@ -4,9 +4,12 @@
 //!
 //! 1. Load the scene, read the timeline (built-in or file) and resolve it whole ([`timeline`]):
 //!    every error is found before the GPU opens.
-//! 2. Per frame: apply the frame's steps (edits, a light added and shadowed, resize, camera),
-//!    render, record time, work and memory; at checks read the surface and compare.
-//! 3. Write `timeline.json`, `timeline.svg`, `report.html` and the timeline as run
+//! 2. With `--target-ms`, set the engine's target frame time (`auto`: first measure frames with
+//!    `hard` on every light in a renderer of their own): cache fills are then spread over frames.
+//! 3. Per frame: apply the frame's steps (edits, a light added and shadowed, resize, camera),
+//!    render, record time, work, budget, each light's quality level and memory; at checks read the
+//!    surface and compare.
+//! 4. Write `timeline.json`, `timeline.svg`, `report.html` and the timeline as run
 //!    (`timeline.toml`).
 
 pub mod timeline;
@@ -15,12 +18,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail, ensure};
 use serde_json::{Value, json};
+use shadowlab::auto::Preference;
+use shadowlab::timing::PassKind;
 use shadowlab::{Edit, Renderer, TechniqueSpec};
 use shadowlab_core::LightId;
 use shadowlab_reference::metrics::ErrorStats;
 use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference};
 
-use crate::args::{GlobalArgs, SceneArgs, Selected, TechniqueArgs, choice_json, open_gpu, parse_size};
+use crate::args::{AUTO, GlobalArgs, SceneArgs, Selected, TechniqueArgs, choice_json, open_gpu, parse_size};
 use crate::measure::median;
 use crate::progress;
 use crate::report;
@@ -28,6 +33,40 @@ use timeline::{BUILT_IN, DragMode, Plan, Step};
 
 /// The technique set on every light when none is given.
 pub const DEFAULT_TECHNIQUE: &str = "lightmaps";
+/// `--target-ms auto`: frames of `hard` on every light measured (their median is taken, so the
+/// first one, which compiles the pipelines, does not count).
+pub const AUTO_TARGET_FRAMES: usize = 10;
+/// `--target-ms auto`: the target is this many times the median frame with `hard`.
+pub const AUTO_TARGET_FACTOR: f64 = 2.0;
+
+/// `--target-ms`: a frame time in ms, or `auto`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Target {
+    Auto,
+    Ms(f64),
+}
+
+impl Target {
+    fn json(self) -> Value {
+        match self {
+            Target::Auto => json!("auto"),
+            Target::Ms(ms) => json!(ms),
+        }
+    }
+}
+
+/// Reads `--target-ms`: `auto`, or a finite number of ms above 0.
+pub fn parse_target(text: &str) -> Result<Target, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("auto") {
+        return Ok(Target::Auto);
+    }
+    match t.parse::<f64>() {
+        Ok(ms) if ms.is_finite() && ms > 0.0 => Ok(Target::Ms(ms)),
+        Ok(_) => Err(format!("{text} ms is not a frame time: give a finite number of ms above 0, or `auto`")),
+        Err(_) => Err(format!("'{text}' is neither a number of ms nor `auto`")),
+    }
+}
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -38,7 +77,8 @@ pub struct Args {
     /// The view the timeline starts from (default: the scene's first view).
     #[arg(long)]
     view: Option<String>,
-    /// `drag`, `lights`, `walk` (built in) or a timeline file (docs/timeline-format.md).
+    /// `drag`, `lights`, `walk`, `startup`, `resize` (built in) or a timeline file
+    /// (docs/timeline-format.md).
     #[arg(long)]
     timeline: String,
     /// Image size, WIDTHxHEIGHT.
@@ -66,6 +106,12 @@ pub struct Args {
     /// Scale every light's emitter size; 0 makes all lights hard.
     #[arg(long, default_value_t = 1.0)]
     emitter_scale: f32,
+    /// Keep frames to a target time: MS, or `auto` (2 × the median time of a frame with `hard` on
+    /// every light, measured first). Cache fills are spread over frames; a light shows its last
+    /// complete state until the new one is complete. `--preference` scales it: quality ×2,
+    /// balanced ×1, speed ×0.5.
+    #[arg(long, value_name = "MS|auto", value_parser = parse_target, allow_hyphen_values = true)]
+    target_ms: Option<Target>,
     /// Check the timeline and print its events per frame as JSON, without a GPU.
     #[arg(long)]
     dry_run: bool,
@@ -78,10 +124,56 @@ pub struct Args {
 struct FrameRecord {
     gpu_ms: Option<f64>,
     cpu_ms: f64,
+    /// The shadow passes' GPU time (the fills), without timestamps `None`.
+    work_ms: Option<f64>,
     work: shadowlab::Work,
     cache_bytes: u64,
     width: u32,
     height: u32,
+    /// Every shadowed light's quality after the frame, in id order.
+    lights: Vec<LightLevel>,
+}
+
+/// One light's quality in one frame ([`shadowlab::Shadows::levels`]).
+#[derive(Debug, Clone, PartialEq)]
+struct LightLevel {
+    id: LightId,
+    name: String,
+    /// Its index in the scene's lights.
+    index: Option<usize>,
+    /// The technique's spec, as given.
+    technique: String,
+    /// 0: no shadow (nothing complete yet); 1: the technique's base; higher: its upgrades.
+    level: u32,
+    /// Emitter samples behind the level (0 where that means nothing).
+    samples: u32,
+    /// What it shows is the scene's current state (no fill pending).
+    current: bool,
+}
+
+/// The frame time the run keeps to, and where it came from.
+struct TargetInfo {
+    given: Target,
+    preference: Preference,
+    /// With `auto`: the median frame with `hard` on every light, and its time source.
+    hard: Option<(f64, &'static str)>,
+    /// The target the engine gets: given (or 2 × the `hard` frame) × the preference's factor.
+    ms: f64,
+}
+
+impl TargetInfo {
+    fn json(&self) -> Value {
+        json!({
+            "given": self.given.json(),
+            "hard_frame_ms": self.hard.map(|h| h.0),
+            "hard_frame_source": self.hard.map(|h| h.1),
+            "hard_frames": self.hard.map(|_| AUTO_TARGET_FRAMES),
+            "auto_factor": self.hard.map(|_| AUTO_TARGET_FACTOR),
+            "preference": self.preference.name(),
+            "preference_factor": self.preference.budget_factor(),
+            "target_ms": self.ms,
+        })
+    }
 }
 
 /// One check's figures, pooled over the measured lights.
@@ -100,8 +192,23 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         emitter_scale: args.emitter_scale,
     };
     let setup = scene_args.load()?;
-    let specs = args.techniques.selected(&setup, &[DEFAULT_TECHNIQUE])?;
-    let (name, text) = read_timeline(&args.timeline, &setup.scene)?;
+    // `--preference` scales the `auto` budget with `--technique auto` and the target with
+    // `--target-ms` (both with both): the same factor, on the time each gives.
+    let wants_auto = args.techniques.technique.iter().chain(&args.techniques.techniques).any(|s| s.trim() == AUTO);
+    let preference = match &args.techniques.preference {
+        Some(p) => Some(Preference::parse(p).with_context(|| format!("--preference {p}"))?),
+        None => None,
+    };
+    if preference.is_some() && !wants_auto && args.target_ms.is_none() {
+        bail!("--preference goes with --technique auto (it scales the budget) or --target-ms (it scales the target)");
+    }
+    let mut technique_args = args.techniques.clone();
+    if !wants_auto {
+        technique_args.preference = None;
+    }
+    let preference = preference.unwrap_or_default();
+    let specs = technique_args.selected(&setup, &[DEFAULT_TECHNIQUE])?;
+    let (name, text) = read_timeline(&args.timeline, &setup.scene, (setup.width, setup.height))?;
     let mode = if args.drag_as_permanent { DragMode::Permanent } else { DragMode::Temporary };
     let plan = timeline::parse(&text)
         .and_then(|t| timeline::plan(&t, &setup.scene, mode))
@@ -114,15 +221,49 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             .filter(|(_, f)| f.has_event())
             .map(|(i, f)| json!({ "frame": i, "events": f.events }))
             .collect();
-        let out = json!({ "timeline": name, "scene": setup.scene.name, "frames": plan.frames.len(), "events": events });
+        let target = args.target_ms.map(|t| {
+            json!({ "given": t.json(), "preference": preference.name(), "preference_factor": preference.budget_factor() })
+        });
+        let out = json!({
+            "timeline": name, "scene": setup.scene.name, "frames": plan.frames.len(), "target": target, "events": events,
+        });
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     std::fs::write(args.out.join("timeline.toml"), &text)?;
     let gpu = open_gpu(global)?;
+    let target = match args.target_ms {
+        None => None,
+        Some(given) => {
+            let hard = match given {
+                Target::Auto => Some(hard_frame_ms(&gpu, &setup).context("--target-ms auto: timing `hard`")?),
+                Target::Ms(_) => None,
+            };
+            let base = match (given, hard) {
+                (Target::Ms(ms), _) => ms,
+                (Target::Auto, Some((ms, _))) => AUTO_TARGET_FACTOR * ms,
+                (Target::Auto, None) => unreachable!("measured above"),
+            };
+            let ms = base * preference.budget_factor();
+            ensure!(ms.is_finite() && ms > 0.0, "--target-ms: the target came out as {ms} ms");
+            let info = TargetInfo { given, preference, hard, ms };
+            match hard {
+                Some((h, source)) => println!(
+                    "target: {ms:.3} ms = {AUTO_TARGET_FACTOR} × {h:.3} {source} ms (median frame with `hard`) × {} ({})",
+                    preference.budget_factor(),
+                    preference.name()
+                ),
+                None => {
+                    println!("target: {ms:.3} ms = {base} ms × {} ({})", preference.budget_factor(), preference.name())
+                }
+            }
+            Some(info)
+        }
+    };
     let mut r = Renderer::new(&gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
     r.shadows.set_caching(!args.no_cache);
+    r.set_target_ms(target.as_ref().map(|t| t.ms));
     let none = TechniqueSpec::parse("none", &[])?;
     if let Some(plan) = specs.iter().find_map(Selected::auto) {
         for line in plan.describe() {
@@ -152,12 +293,14 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         }
         let report = r.render().with_context(|| format!("frame {f}"))?;
         records.push(FrameRecord {
-            gpu_ms: report.gpu.map(|t| t.total()),
+            gpu_ms: report.gpu.as_ref().map(|t| t.total()),
             cpu_ms: report.cpu_ms,
+            work_ms: report.gpu.as_ref().map(|t| t.get(PassKind::Shadow)),
             work: report.work,
             cache_bytes: r.shadows.memory_bytes(),
             width: r.width,
             height: r.height,
+            lights: light_levels(&r),
         });
         if checked(f) {
             bar.set_message(format!("check at frame {f}"));
@@ -168,7 +311,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     }
     bar.finish_and_clear();
 
-    let mut doc = document(&args, &name, &setup, &specs, &gpu, &plan, &records, &checks);
+    let mut doc = document(&args, &name, &setup, &specs, &gpu, &plan, &records, &checks, target.as_ref());
     if let Some(p) = specs.iter().find_map(Selected::auto) {
         let mut choices = p.choices_json();
         if let Some(list) = choices.as_array_mut() {
@@ -178,7 +321,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         doc["auto_budget"] = p.settings_json();
     }
     std::fs::write(args.out.join("timeline.json"), serde_json::to_string_pretty(&doc)?)?;
-    let svg = plot(&plan, &records, doc["time_source"].as_str().unwrap_or("cpu"))?;
+    let svg = plot(&plan, &records, doc["time_source"].as_str().unwrap_or("cpu"), target.as_ref().map(|t| t.ms))?;
     std::fs::write(args.out.join("timeline.svg"), &svg)?;
     std::fs::write(args.out.join("report.html"), report_html(&doc, &svg))?;
     print_summary(&doc);
@@ -186,13 +329,53 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     Ok(())
 }
 
+/// The median time (and its source: `gpu` when every frame has timestamps, else `cpu`) of
+/// [`AUTO_TARGET_FRAMES`] frames of the scene with `hard` on every light it supports, uncached (every
+/// map rendered every frame), in a renderer of their own: what `--target-ms auto` doubles.
+fn hard_frame_ms(gpu: &shadowlab::Gpu, setup: &crate::args::Setup) -> Result<(f64, &'static str)> {
+    let mut r = Renderer::new(gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
+    r.shadows.set_caching(false);
+    let hard = TechniqueSpec::parse("hard", &[])?;
+    let none = TechniqueSpec::parse("none", &[])?;
+    for (i, light) in setup.scene.lights.iter().enumerate() {
+        let spec = if hard.info.supports(light) { &hard } else { &none };
+        r.set_technique(LightId(i as u32), spec).with_context(|| format!("light '{}'", light.name))?;
+    }
+    let mut reports = Vec::with_capacity(AUTO_TARGET_FRAMES);
+    for _ in 0..AUTO_TARGET_FRAMES {
+        reports.push(r.render()?);
+    }
+    let timed = reports.iter().all(|f| f.gpu.is_some());
+    let times: Vec<f64> =
+        reports.iter().map(|f| if timed { f.gpu.as_ref().map_or(f64::NAN, |t| t.total()) } else { f.cpu_ms }).collect();
+    Ok((median(times), if timed { "gpu" } else { "cpu" }))
+}
+
+/// Every shadowed light's quality level after the frame just rendered.
+fn light_levels(r: &Renderer) -> Vec<LightLevel> {
+    let live = r.shadows.live();
+    r.shadows
+        .levels()
+        .into_iter()
+        .map(|(id, level, current, samples)| LightLevel {
+            id,
+            name: live.light(id).map_or_else(String::new, |l| l.name.clone()),
+            index: live.light_index(id),
+            technique: r.shadows.spec(id).map_or_else(String::new, |s| s.spec.clone()),
+            level,
+            samples,
+            current,
+        })
+        .collect()
+}
+
 /// The timeline's name and text: a built-in for the scene, or a file.
-fn read_timeline(spec: &str, scene: &shadowlab_core::Scene) -> Result<(String, String)> {
+fn read_timeline(spec: &str, scene: &shadowlab_core::Scene, size: (u32, u32)) -> Result<(String, String)> {
     let path = Path::new(spec);
     // A built-in's name is never taken for a file of that name in the working directory.
     let is_file = spec.contains(['/', '\\']) || spec.ends_with(".toml") || (!BUILT_IN.contains(&spec) && path.exists());
     if !is_file {
-        return match timeline::built_in(spec, scene)
+        return match timeline::built_in(spec, scene, size)
             .with_context(|| format!("built-in timeline '{spec}' on scene '{}'", scene.name))?
         {
             Some(text) => Ok((spec.to_owned(), text)),
@@ -315,6 +498,7 @@ fn document(
     plan: &Plan,
     records: &[FrameRecord],
     checks: &[Check],
+    target: Option<&TargetInfo>,
 ) -> Value {
     let gpu_timed = records.iter().all(|r| r.gpu_ms.is_some());
     let times = ms(records, gpu_timed);
@@ -337,6 +521,18 @@ fn document(
                 "camera_moving": fp.camera_moving,
                 "width": r.width,
                 "height": r.height,
+                "budget_ms": finite(r.work.budget_ms),
+                "planned_ms": finite(r.work.planned_ms),
+                "work_ms": r.work_ms,
+                "deferred": r.work.deferred,
+                "lights": r.lights.iter().map(|l| json!({
+                    "light": l.name,
+                    "index": l.index,
+                    "level": l.level,
+                    "technique": l.technique,
+                    "samples": l.samples,
+                    "current": l.current,
+                })).collect::<Vec<_>>(),
             })
         })
         .collect();
@@ -349,6 +545,9 @@ fn document(
     let opt = |v: &[f64], f: fn(Vec<f64>) -> f64| if v.is_empty() { Value::Null } else { finite(f(v.to_vec())) };
     let max = |v: Vec<f64>| v.into_iter().fold(f64::NEG_INFINITY, f64::max);
     let rmse = |s: &ErrorStats| if s.pixels == 0 { Value::Null } else { finite(s.rmse()) };
+    // Every light shows the current state at frame `f` (with a target, a light may show an older
+    // one while its fill is spread over frames: the fresh engine differs there by design).
+    let all_current = |f: usize| records.get(f).is_some_and(|r| r.lights.iter().all(|l| l.current));
     let checks_json: Vec<Value> = checks
         .iter()
         .map(|c| {
@@ -359,12 +558,16 @@ fn document(
                 "rmse_vs_truth": rmse(&c.vs_truth),
                 "wrong_frac_vs_truth": if c.vs_truth.pixels == 0 { Value::Null } else { finite(c.vs_truth.wrong_frac()) },
                 "relevant_pixels": c.vs_fresh.pixels,
+                "current": all_current(c.frame),
             })
         })
         .collect();
     let total = |key: &str| -> u64 {
         records.iter().map(|r| r.work.counts().iter().find(|(k, _)| *k == key).map_or(0, |(_, v)| u64::from(*v))).sum()
     };
+    let full = full_quality(plan, records);
+    let target_ms = target.map(|t| t.ms);
+    let over = |t: f64| all_ms.iter().filter(|&&ms| ms > t).count();
     json!({
         "scene": setup.scene.name,
         "timeline": name,
@@ -378,6 +581,8 @@ fn document(
         "time_source": if gpu_timed { "gpu" } else { "cpu" },
         "check_every": args.check_every,
         "reference": { "samples": args.samples, "seed": args.seed },
+        "target_ms": target_ms,
+        "target": target.map(TargetInfo::json),
         "frames": frames,
         "checks": checks_json,
         "summary": {
@@ -394,34 +599,108 @@ fn document(
             "temporary_views_total": total("temporary_views"),
             "max_rmse_vs_fresh": checks.iter().filter(|c| c.vs_fresh.pixels > 0).map(|c| c.vs_fresh.rmse()).reduce(f64::max),
             "max_abs_vs_fresh": checks.iter().filter(|c| c.vs_fresh.pixels > 0).map(|c| f64::from(c.vs_fresh.max_abs)).reduce(f64::max),
+            "max_rmse_vs_fresh_current": checks.iter().filter(|c| c.vs_fresh.pixels > 0 && all_current(c.frame)).map(|c| c.vs_fresh.rmse()).reduce(f64::max),
+            "max_abs_vs_fresh_current": checks.iter().filter(|c| c.vs_fresh.pixels > 0 && all_current(c.frame)).map(|c| f64::from(c.vs_fresh.max_abs)).reduce(f64::max),
+            "frames_to_full_quality": full.first().and_then(|&(_, f)| f),
+            "full_quality_after_events": full.iter().map(|&(e, f)| json!({
+                "frame": e,
+                "events": plan.frames[e].events,
+                "frames_to_full_quality": f.map(|f| f - e),
+            })).collect::<Vec<_>>(),
+            "level_switches": level_switches(records),
+            "max_frame_over_target": target_ms.and_then(|t| (!all_ms.is_empty()).then(|| max(all_ms.clone()) / t)),
+            "frames_over_target": target_ms.map(over),
         },
     })
 }
 
-/// Frame time per frame (line), map views re-rendered per frame (bars, right axis), each event a
-/// vertical line with its label. Times far above the median (the first frame builds every cache)
-/// are clipped to keep the rest readable, their values written beside them.
-fn plot(plan: &Plan, records: &[FrameRecord], time_source: &str) -> Result<String> {
+/// For each stretch of the run from a frame with an event (the first frame's `start` included) to
+/// the next one: that frame and the first frame from which every light shows its current state at
+/// the highest level it reaches in the stretch, on every frame to the stretch's end (`None`: not
+/// before the stretch ends).
+fn full_quality(plan: &Plan, records: &[FrameRecord]) -> Vec<(usize, Option<usize>)> {
+    let n = records.len().min(plan.frames.len());
+    let starts: Vec<usize> = (0..n).filter(|&i| i == 0 || plan.frames[i].has_event()).collect();
+    starts
+        .iter()
+        .enumerate()
+        .map(|(k, &start)| {
+            let end = starts.get(k + 1).copied().unwrap_or(n);
+            let stretch = &records[start..end];
+            let mut top: Vec<(LightId, u32)> = Vec::new();
+            for l in stretch.iter().flat_map(|r| &r.lights) {
+                match top.iter_mut().find(|(id, _)| *id == l.id) {
+                    Some((_, t)) => *t = (*t).max(l.level),
+                    None => top.push((l.id, l.level)),
+                }
+            }
+            let full = |r: &FrameRecord| {
+                r.lights.iter().all(|l| l.current && top.iter().any(|&(id, t)| id == l.id && t == l.level))
+            };
+            let settled = stretch.iter().rev().take_while(|r| full(r)).count();
+            (start, (settled > 0).then(|| end - settled))
+        })
+        .collect()
+}
+
+/// Changes of a light's level from one frame to the next (up or down), over all lights and frames
+/// (a light's first frame is none).
+fn level_switches(records: &[FrameRecord]) -> usize {
+    records
+        .windows(2)
+        .map(|w| w[1].lights.iter().filter(|l| w[0].lights.iter().any(|p| p.id == l.id && p.level != l.level)).count())
+        .sum()
+}
+
+/// Frame time per frame (line), the target (dashed), map views re-rendered per frame (bars, right
+/// axis), each event a vertical line with its label; below, each light's level per frame (step
+/// lines, with a legend). Times far above the median (the first frame builds every cache) are
+/// clipped to keep the rest readable, their values written beside them.
+fn plot(plan: &Plan, records: &[FrameRecord], time_source: &str, target_ms: Option<f64>) -> Result<String> {
     use plotters::prelude::*;
     report::register_font();
     let times = ms(records, time_source == "gpu");
     let n = records.len().max(1) as f64;
     let finite: Vec<f64> = times.iter().copied().filter(|t| t.is_finite()).collect();
     let highest = finite.iter().copied().fold(0.0, f64::max).max(1e-3);
-    let clip = highest.min(5.0 * median(finite.clone()).max(1e-3));
+    // With a target, frames up to twice it are drawn whole (the frames that matter against it).
+    let clip = highest.min((5.0 * median(finite.clone()).max(1e-3)).max(2.0 * target_ms.unwrap_or(0.0)));
+    let top_of_data = clip.max(target_ms.unwrap_or(0.0));
     // Room above the highest point for the events' labels.
-    let top = clip * 1.4;
+    let top = top_of_data * 1.4;
     let max_views = records.iter().map(|r| r.work.map_views).max().unwrap_or(0).max(1) as f64 * 1.4;
     let unit = time_source.to_uppercase();
+    // The lights in the order they first appear, with their technique.
+    let mut lights: Vec<(LightId, String)> = Vec::new();
+    for l in records.iter().flat_map(|r| &r.lights) {
+        if !lights.iter().any(|(id, _)| *id == l.id) {
+            let mut label = format!("{} ({})", l.name, l.technique);
+            if label.chars().count() > 34 {
+                label = label.chars().take(33).collect::<String>() + "…";
+            }
+            lights.push((l.id, label));
+        }
+    }
+    let max_level = records.iter().flat_map(|r| &r.lights).map(|l| l.level).max().unwrap_or(1).max(1);
+    // The legend under the levels: four lights a row.
+    const LEGEND_COLUMNS: usize = 4;
+    let legend_height = if lights.is_empty() { 0 } else { 8 + 18 * lights.len().div_ceil(LEGEND_COLUMNS) as u32 };
+    let (upper_height, lower_height) = (440, if lights.is_empty() { 0 } else { 220 });
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (960, 440)).into_drawing_area();
+        let root =
+            SVGBackend::with_string(&mut svg, (960, upper_height + lower_height + legend_height)).into_drawing_area();
         root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{unit} ms per frame (blue line) and map views re-rendered (orange bars, right axis)"),
-                ("sans-serif", 16),
-            )
+        let (upper, rest) = root.split_vertically(upper_height);
+        let (lower, legend) = rest.split_vertically(lower_height);
+        let caption = match target_ms {
+            Some(t) => format!(
+                "{unit} ms per frame (blue line), target {t:.2} ms (dashed) and map views re-rendered (orange bars, right axis)"
+            ),
+            None => format!("{unit} ms per frame (blue line) and map views re-rendered (orange bars, right axis)"),
+        };
+        let mut chart = ChartBuilder::on(&upper)
+            .caption(caption, ("sans-serif", 16))
             .margin(16)
             .x_label_area_size(42)
             .y_label_area_size(64)
@@ -438,7 +717,7 @@ fn plot(plan: &Plan, records: &[FrameRecord], time_source: &str) -> Result<Strin
         chart
             .configure_secondary_axes()
             .y_desc("map views re-rendered")
-            .y_label_formatter(&|y| format!("{y:.0}"))
+            .y_label_formatter(&|y| if y.fract() == 0.0 { format!("{y:.0}") } else { String::new() })
             .label_style(("sans-serif", 13))
             .draw()?;
         let bars = RGBColor(255, 127, 14);
@@ -448,6 +727,14 @@ fn plot(plan: &Plan, records: &[FrameRecord], time_source: &str) -> Result<Strin
                 Rectangle::new([(x - 0.4, 0.0), (x + 0.4, f64::from(r.work.map_views))], bars.mix(0.5).filled())
             },
         ))?;
+        if let Some(t) = target_ms {
+            chart.draw_series(DashedLineSeries::new(
+                [(-0.5, t), (n - 0.5, t)],
+                8,
+                6,
+                RGBColor(44, 160, 44).stroke_width(2),
+            ))?;
+        }
         let line = RGBColor(31, 119, 180);
         let points: Vec<(f64, f64)> =
             times.iter().enumerate().filter(|(_, t)| t.is_finite()).map(|(i, t)| (i as f64, t.min(clip))).collect();
@@ -470,6 +757,55 @@ fn plot(plan: &Plan, records: &[FrameRecord], time_source: &str) -> Result<Strin
             chart.draw_series(std::iter::once(
                 EmptyElement::at((x, y)) + Text::new(label, (4, 0), ("sans-serif", 12).into_font().color(&mark)),
             ))?;
+        }
+        if !lights.is_empty() {
+            let mut levels = ChartBuilder::on(&lower)
+                .caption(
+                    "each light's level (0 no shadow, 1 the technique's base, higher its upgrades; dots: not yet current)",
+                    ("sans-serif", 14),
+                )
+                .margin(16)
+                .x_label_area_size(36)
+                .y_label_area_size(64)
+                .right_y_label_area_size(64)
+                .build_cartesian_2d(-0.5..n - 0.5, -0.3..f64::from(max_level) + 0.5)?;
+            levels
+                .configure_mesh()
+                .x_desc("frame")
+                .y_desc("level")
+                .x_label_formatter(&|x| format!("{x:.0}"))
+                .y_labels(max_level as usize + 2)
+                .y_label_formatter(&|y| if y.fract() == 0.0 { format!("{y:.0}") } else { String::new() })
+                .label_style(("sans-serif", 13))
+                .draw()?;
+            // Lines a little apart so that lights on the same level stay visible.
+            let spread = if lights.len() > 1 { 0.24 / (lights.len() - 1) as f64 } else { 0.0 };
+            for (k, (id, label)) in lights.iter().enumerate() {
+                let colour = Palette99::pick(k).to_rgba();
+                let offset = spread * k as f64 - 0.12 * f64::from(u8::from(lights.len() > 1));
+                let steps: Vec<(usize, u32, bool)> = records
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, r)| r.lights.iter().find(|l| l.id == *id).map(|l| (i, l.level, l.current)))
+                    .collect();
+                let mut path = Vec::with_capacity(2 * steps.len());
+                for &(i, level, _) in &steps {
+                    let y = f64::from(level) + offset;
+                    path.push((i as f64 - 0.5, y));
+                    path.push((i as f64 + 0.5, y));
+                }
+                levels.draw_series(LineSeries::new(path, colour.stroke_width(2)))?;
+                let (x, y) = (80 + 220 * (k % LEGEND_COLUMNS) as i32, 8 + 18 * (k / LEGEND_COLUMNS) as i32);
+                legend.draw(&PathElement::new(vec![(x, y + 6), (x + 18, y + 6)], colour.stroke_width(2)))?;
+                legend.draw(&Text::new(label.clone(), (x + 24, y), ("sans-serif", 12).into_font()))?;
+                // Frames whose state is not the current one: a dot above the line.
+                levels.draw_series(
+                    steps
+                        .iter()
+                        .filter(|s| !s.2)
+                        .map(|&(i, level, _)| Circle::new((i as f64, f64::from(level) + offset), 2, colour.filled())),
+                )?;
+            }
         }
         root.present()?;
     }
@@ -499,14 +835,35 @@ fn print_summary(doc: &Value) {
         mib(&s["cache_bytes_first"]),
         mib(&s["cache_bytes_last"]),
     );
+    println!("{}", quality_line(doc));
     if let Some(checks) = doc["checks"].as_array().filter(|c| !c.is_empty()) {
         println!(
-            "{} checks: max RMSE vs fresh {}, max |Δ| vs fresh {}",
+            "{} checks: max RMSE vs fresh {}, max |Δ| vs fresh {}; where every light is current {}, {}",
             checks.len(),
             fmt(&s["max_rmse_vs_fresh"], 5),
-            fmt(&s["max_abs_vs_fresh"], 5)
+            fmt(&s["max_abs_vs_fresh"], 5),
+            fmt(&s["max_rmse_vs_fresh_current"], 5),
+            fmt(&s["max_abs_vs_fresh_current"], 5)
         );
     }
+}
+
+/// The target, how soon every light was at full quality, and how often levels switched.
+fn quality_line(doc: &Value) -> String {
+    let s = &doc["summary"];
+    let target = match doc["target_ms"].as_f64() {
+        Some(t) => format!(
+            "target {t:.3} ms: max frame ÷ target {}, {} frames over it",
+            fmt(&s["max_frame_over_target"], 2),
+            s["frames_over_target"]
+        ),
+        None => "no target (every fill in the frame that needs it)".to_owned(),
+    };
+    let full = match s["frames_to_full_quality"].as_u64() {
+        Some(f) => format!("every light current at its top level from frame {f}"),
+        None => "not every light reached its top level before the first event".to_owned(),
+    };
+    format!("{target}; {full}; {} level switches", s["level_switches"])
 }
 
 fn report_html(doc: &Value, svg: &str) -> String {
@@ -552,12 +909,21 @@ fn report_html(doc: &Value, svg: &str) -> String {
                 fmt(&c["max_abs_vs_fresh"], 5),
                 fmt(&c["rmse_vs_truth"], 4),
                 c["wrong_frac_vs_truth"].as_f64().map(|x| format!("{:.2}%", 100.0 * x)).unwrap_or_default(),
+                if c["current"].as_bool() == Some(false) { "no" } else { "yes" }.to_owned(),
                 report::escape(&events.iter().filter_map(Value::as_str).collect::<Vec<_>>().join("; ")),
             ]
         })
         .collect();
     let checks = report::table(
-        &["frame", "RMSE vs fresh", "max |Δ| vs fresh", "RMSE vs truth", "wrong vs truth", "events this frame"],
+        &[
+            "frame",
+            "RMSE vs fresh",
+            "max |Δ| vs fresh",
+            "RMSE vs truth",
+            "wrong vs truth",
+            "all current",
+            "events this frame",
+        ],
         &checks_rows,
     );
     let event_rows: Vec<Vec<String>> = frames
@@ -591,10 +957,10 @@ fn report_html(doc: &Value, svg: &str) -> String {
         "<!doctype html><html><head><meta charset=\"utf-8\"><title>shadowlab play: {scene} / {timeline}</title><style>{style}</style></head><body>\
 <h1>shadowlab play: {scene} / {timeline}</h1>\
 <p>{w}×{h} pixels · techniques: {techniques} · caching {cached} · drags {drags} · adapter: {adapter} ({backend}, {dtype}) · times: {source}</p>\
-<h2>Summary</h2>{summary}{auto}\
+<h2>Summary</h2>{summary}<p>{quality}.</p>{target}{auto}\
 <p class=\"note\">Still frames: no event, no drag, and more than {settling} frames after the last event (the first frame, which builds every cache, counts as one). Drag frames: a drag is active. On a CPU adapter only ratios within a run (or between a cached and an uncached run) mean anything.</p>\
 <h2>Frame time and work</h2>{svg}\
-<h2>Checks</h2><p class=\"note\">The live engine against a fresh, uncached engine on the same state and surface (over each light's relevant pixels; it must be 0 for exact techniques), and against the ray-traced truth ({samples} samples; wrong = |Δ| &gt; 0.1), pooled over the shadowed lights.</p>{checks}\
+<h2>Checks</h2><p class=\"note\">The live engine against a fresh, uncached engine on the same state and surface (over each light's relevant pixels; it must be 0 for exact techniques where every light is current: with a target, a light whose fill is spread over frames shows an older state meanwhile), and against the ray-traced truth ({samples} samples; wrong = |Δ| &gt; 0.1), pooled over the shadowed lights.</p>{checks}\
 <h2>Events</h2>{events}\
 </body></html>",
         scene = report::escape(doc["scene"].as_str().unwrap_or("")),
@@ -612,6 +978,55 @@ fn report_html(doc: &Value, svg: &str) -> String {
         settling = timeline::SETTLING_FRAMES,
         samples = doc["reference"]["samples"],
         auto = auto_html(doc),
+        quality = report::escape(&quality_line(doc)),
+        target = target_html(doc),
+    )
+}
+
+/// With a target: where it came from, and per event how many frames until full quality.
+fn target_html(doc: &Value) -> String {
+    let empty = Vec::new();
+    let rows: Vec<Vec<String>> = doc["summary"]["full_quality_after_events"]
+        .as_array()
+        .unwrap_or(&empty)
+        .iter()
+        .map(|e| {
+            let events: Vec<&str> = e["events"].as_array().unwrap_or(&empty).iter().filter_map(Value::as_str).collect();
+            vec![
+                e["frame"].to_string(),
+                report::escape(&events.join("; ")),
+                e["frames_to_full_quality"]
+                    .as_u64()
+                    .map_or_else(|| "not before the next event".to_owned(), |f| f.to_string()),
+            ]
+        })
+        .collect();
+    let t = &doc["target"];
+    let source = if t.is_null() {
+        "No target: every fill is done in the frame that needs it.".to_owned()
+    } else if t["given"] == "auto" {
+        format!(
+            "Target {} ms = {} × {} {} ms (the median of {} frames with <code>hard</code> on every light, uncached) × {} ({}).",
+            fmt(&t["target_ms"], 3),
+            t["auto_factor"],
+            fmt(&t["hard_frame_ms"], 3),
+            t["hard_frame_source"].as_str().unwrap_or(""),
+            t["hard_frames"],
+            t["preference_factor"],
+            t["preference"].as_str().unwrap_or("")
+        )
+    } else {
+        format!(
+            "Target {} ms = {} ms × {} ({}).",
+            fmt(&t["target_ms"], 3),
+            t["given"],
+            t["preference_factor"],
+            t["preference"].as_str().unwrap_or("")
+        )
+    };
+    format!(
+        "<h2>Target and quality levels</h2><p>{source} A light shows its last complete state until its new one is complete (level 0: unshadowed until the first).</p>{}",
+        report::table(&["event frame", "events", "frames to full quality"], &rows)
     )
 }
 

@@ -23,7 +23,13 @@ pub const MAX_FRAMES: u32 = 100_000;
 /// The largest side a `resize` may ask for (as `--size`).
 pub const MAX_SIZE: u32 = 8192;
 /// The built-in timelines, by name.
-pub const BUILT_IN: &[&str] = &["drag", "lights", "walk"];
+pub const BUILT_IN: &[&str] = &["drag", "lights", "walk", "startup", "resize"];
+/// Frames of the built-in `startup` timeline.
+pub const STARTUP_FRAMES: u32 = 120;
+/// The built-in `resize`: still frames before the resize, after it and after the way back.
+pub const RESIZE_STILL: u32 = 40;
+/// The built-in `resize` enlarges the output by this factor, then goes back.
+pub const RESIZE_FACTOR: f64 = 1.5;
 /// The changes a `light` event may make, in the order they are applied.
 const LIGHT_FIELDS: &[&str] =
     &["color", "intensity", "position", "direction", "radius", "angular_radius", "size", "range"];
@@ -745,10 +751,29 @@ fn quoted(s: &str) -> String {
     Value::String(s.to_owned()).to_string()
 }
 
-/// The text of built-in timeline `name` for `scene`, with names the scene has; `None` when `name`
-/// is not a built-in.
-pub fn built_in(name: &str, scene: &Scene) -> Result<Option<String>> {
+/// The text of built-in timeline `name` for `scene` at the output size `size`, with names the scene
+/// has; `None` when `name` is not a built-in.
+pub fn built_in(name: &str, scene: &Scene, size: (u32, u32)) -> Result<Option<String>> {
     let text = match name {
+        "startup" => format!(
+            "# {STARTUP_FRAMES} still frames from empty caches: every fill happens in the first frame, or, with\n\
+             # --target-ms, spread over the first frames (the progressive fill).\n\
+             frames = {STARTUP_FRAMES}\n"
+        ),
+        "resize" => {
+            let (w, h) = size;
+            let grow = |s: u32| ((f64::from(s) * RESIZE_FACTOR).round() as u32).clamp(1, MAX_SIZE);
+            let (big_w, big_h) = (grow(w), grow(h));
+            let (at, back) = (RESIZE_STILL, 2 * RESIZE_STILL);
+            format!(
+                "# {RESIZE_STILL} still frames at {w}x{h}, a resize to {big_w}x{big_h} ({RESIZE_FACTOR}x), {RESIZE_STILL} still frames,\n\
+                 # back to {w}x{h}, {RESIZE_STILL} still frames.\n\
+                 frames = {frames}\n\n\
+                 [[event]]\nframe = {at}\nresize = [{big_w}, {big_h}]\n\n\
+                 [[event]]\nframe = {back}\nresize = [{w}, {h}]\n",
+                frames = 3 * RESIZE_STILL,
+            )
+        }
         "drag" => {
             // The room's dynamic chair, else the scene's first dynamic object.
             let target = scene
@@ -868,20 +893,20 @@ mod tests {
         for scene in ["room", "room:lamps=4"] {
             let s = shadowlab_core::load_scene(scene).unwrap().scene;
             for name in BUILT_IN {
-                let text = built_in(name, &s).unwrap().unwrap();
+                let text = built_in(name, &s, (160, 120)).unwrap().unwrap();
                 let t = parse(&text).unwrap_or_else(|e| panic!("{scene}/{name}: {e}\n{text}"));
                 plan(&t, &s, DragMode::Temporary).unwrap_or_else(|e| panic!("{scene}/{name}: {e}\n{text}"));
             }
         }
         let lamps = shadowlab_core::load_scene("room:lamps=4").unwrap().scene;
-        assert!(built_in("lights", &lamps).unwrap().unwrap().contains("light = \"lamp 1\""));
-        assert!(built_in("none", &room()).unwrap().is_none());
+        assert!(built_in("lights", &lamps, (160, 120)).unwrap().unwrap().contains("light = \"lamp 1\""));
+        assert!(built_in("none", &room(), (160, 120)).unwrap().is_none());
     }
 
     #[test]
     fn drag_has_the_frames_of_the_issue() {
         let s = room();
-        let t = parse(&built_in("drag", &s).unwrap().unwrap()).unwrap();
+        let t = parse(&built_in("drag", &s, (160, 120)).unwrap().unwrap()).unwrap();
         let p = plan(&t, &s, DragMode::Temporary).unwrap();
         assert_eq!(p.frames.len(), 211);
         let dragging: Vec<usize> = (0..211).filter(|&f| p.frames[f].dragging).collect();
@@ -1030,6 +1055,28 @@ mod tests {
         // the 4000 files: 3575 refused by the parser, 425 parsed; of their 850 plans (two drag
         // modes) 662 refused and 188 made.
         assert!(parsed > 0 && planned > 0 && refused > 0, "parsed {parsed}, planned {planned}, refused {refused}");
+    }
+
+    /// `startup` is still frames only; `resize` grows the output by half and goes back, on any
+    /// scene (no names needed) and at any size (1×1 included, clamped at the largest size).
+    #[test]
+    fn startup_and_resize_fit_every_scene_and_size() {
+        for scene in ["room", "columns", "terrain"] {
+            let s = shadowlab_core::load_scene(scene).unwrap().scene;
+            let p =
+                plan(&parse(&built_in("startup", &s, (64, 48)).unwrap().unwrap()).unwrap(), &s, DragMode::Temporary)
+                    .unwrap();
+            assert_eq!(p.frames.len(), STARTUP_FRAMES as usize);
+            assert!(p.frames.iter().skip(1).all(|f| !f.has_event() && f.steps.is_empty()));
+            for (size, big) in [((128, 96), (192, 144)), ((1, 1), (2, 2)), ((8000, 3), (MAX_SIZE, 5))] {
+                let p = plan(&parse(&built_in("resize", &s, size).unwrap().unwrap()).unwrap(), &s, DragMode::Temporary)
+                    .unwrap();
+                assert_eq!(p.frames.len(), 120);
+                let resizes: Vec<(usize, &Step)> =
+                    p.frames.iter().enumerate().flat_map(|(i, f)| f.steps.iter().map(move |s| (i, s))).collect();
+                assert_eq!(resizes, [(40, &Step::Resize(big.0, big.1)), (80, &Step::Resize(size.0, size.1))]);
+            }
+        }
     }
 
     #[test]

@@ -392,6 +392,23 @@ impl Shadows {
     }
 
     /// Records every light's prepare and resolve into `encoder`; returns what was re-rendered.
+    /// The order in which lights take the frame's budget (Toromanoff alg. 13; issue 12's priority):
+    /// lights showing no shadow yet first (their receivers lack any), then the nearest to the eye
+    /// first (a directional light reaches every pixel: distance 0), ties in id order. Lights whose
+    /// fills fit the budget all run whatever the order; it decides who waits when they do not.
+    fn fill_order(&self, eye: glam::Vec3) -> Vec<usize> {
+        let key = |s: &LightShadow| {
+            let distance = self.live.light(s.light).and_then(|l| l.position()).map_or(0.0, |p| p.distance(eye));
+            (s.shown.is_some(), if distance.is_finite() { distance } else { f32::MAX })
+        };
+        let mut order: Vec<usize> = (0..self.lights.len()).collect();
+        order.sort_by(|&a, &b| {
+            let (ka, kb) = (key(&self.lights[a]), key(&self.lights[b]));
+            ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+        });
+        order
+    }
+
     pub fn record(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
@@ -413,11 +430,13 @@ impl Shadows {
             None => Budget::unlimited(),
         };
         // Rung by rung across the lights (Toromanoff alg. 13: every light's cheap shadow before
-        // anyone's upgrade), each rung's fills within the frame's budget.
+        // anyone's upgrade), each rung's fills within the frame's budget, lights in priority order.
         let rungs = self.lights.iter().map(|s| s.rungs.len()).max().unwrap_or(0).min(self.cap.max(1));
         let mut rebuilt = vec![false; self.lights.len()];
+        let order = self.fill_order(surface.camera.position.truncate());
         for r in 0..rungs {
-            for (k, s) in self.lights.iter_mut().enumerate() {
+            for &k in &order {
+                let s = &mut self.lights[k];
                 let Some(rung) = s.rungs.get_mut(r) else { continue };
                 let Some(light) = self.live.light(s.light) else { continue };
                 let mut ctx = FrameContext {

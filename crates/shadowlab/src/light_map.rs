@@ -54,6 +54,29 @@ impl LightMap {
         }
     }
 
+    /// Whether a technique with parameters `p` can keep this map: the same map size (the
+    /// allocation); faces and slope bias may differ (they are in every view's signature).
+    pub fn fits(&self, p: &ParamSet) -> bool {
+        p.int("map_size") as u32 == self.size
+    }
+
+    /// Takes the parameters of a technique that keeps this map ([`LightMap::fits`]): the lookup's
+    /// offsets and taps at once, the raster state for the next update (views whose signature it
+    /// changes are re-rendered then).
+    pub fn set_params(&mut self, shared: &Shared, p: &ParamSet, linear: bool) {
+        debug_assert!(self.fits(p));
+        self.raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
+        self.bias.values.x = p.float("normal_offset") as f32;
+        self.bias.values.y = p.float("constant_bias") as f32;
+        self.bias.mode.x = if linear { 1.0 } else { 0.0 };
+        shared.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.bias));
+        if linear != self.linear {
+            // The lookup group holds the sampler that does the comparison taps.
+            self.linear = linear;
+            self.group = None;
+        }
+    }
+
     /// Fits the views to the light and the scene as they are now and renders the layers that are
     /// not valid. Returns the views rendered.
     pub fn update(&mut self, ctx: &mut FrameContext<'_>) -> Result<u32, TechniqueError> {

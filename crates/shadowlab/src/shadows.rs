@@ -201,15 +201,31 @@ impl Shadows {
         let unshadowed = TechniqueSpec::parse("none", &[])
             .and_then(|none| none.create(&self.shared, l))
             .expect("`none` supports every light");
-        if let Some(old) = self.lights.iter().find(|s| s.light == light) {
-            for r in &old.rungs {
-                self.cache.forget_owner(r.owner);
+        // A new rung takes over the caches of the old rung at its place when they fit (a changed
+        // parameter, `hard` → `pcf`): it keeps the old owner id, so the records still name its
+        // memory, and the signatures decide what is re-rendered. The other old records are dropped.
+        let mut old_rungs = match self.lights.iter().position(|s| s.light == light) {
+            Some(k) => self.lights.remove(k).rungs,
+            None => Vec::new(),
+        };
+        let mut kept = Vec::with_capacity(rungs.len());
+        for (i, (_, technique)) in rungs.iter_mut().enumerate() {
+            let handed = old_rungs.get_mut(i).and_then(|old| Some((old.owner, old.technique.hand_over()?)));
+            kept.push(handed.and_then(|(owner, h)| technique.take_over(&self.shared, h).ok().map(|()| owner)));
+        }
+        for old in &old_rungs {
+            if !kept.contains(&Some(old.owner)) {
+                self.cache.forget_owner(old.owner);
             }
         }
-        self.lights.retain(|s| s.light != light);
         let rungs = rungs
             .into_iter()
-            .map(|(spec, technique)| Rung { spec, technique, owner: self.cache.new_owner() })
+            .zip(kept)
+            .map(|((spec, technique), owner)| Rung {
+                spec,
+                technique,
+                owner: owner.unwrap_or_else(|| self.cache.new_owner()),
+            })
             .collect();
         self.lights.push(LightShadow {
             light,

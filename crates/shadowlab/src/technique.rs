@@ -15,6 +15,7 @@ use crate::context::Shared;
 use crate::frame::{SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
+use crate::light_map::LightMap;
 use crate::live::scheduler::{Budget, CostModel};
 use crate::live::{LiveScene, ShadowCache};
 use crate::timing::GpuTimer;
@@ -119,6 +120,25 @@ pub trait ShadowTechnique: Send {
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
         None
     }
+
+    /// Gives up the caches a successor on the same light could keep ([`Handover`]). Default: none.
+    fn hand_over(&mut self) -> Option<Handover> {
+        None
+    }
+
+    /// Takes over a predecessor's caches, or gives them back when they do not fit its parameters.
+    fn take_over(&mut self, _shared: &Shared, handover: Handover) -> Result<(), Handover> {
+        Err(handover)
+    }
+}
+
+/// Caches a technique hands to its successor on the same light when only its parameters change
+/// (a slider in the viewer) or it is replaced by one built on the same maps (`hard` → `pcf`): the
+/// successor keeps the memory, and the cache's signatures (which hash every parameter that changes
+/// what a map holds) decide what is re-rendered, so nothing kept can be stale.
+pub enum Handover {
+    /// A light's hard map ([`LightMap`]).
+    Map(Box<LightMap>),
 }
 
 /// How to make a technique.

@@ -279,3 +279,35 @@ fn volumes_re_extract_only_the_objects_and_lights_that_changed() {
     let w = live.check("camera moved");
     assert_eq!(w.volume_objects, 0, "a camera move extracts {w:?}");
 }
+
+/// Parameters change in place (the viewer's sliders): a technique that keeps the maps (`hard` →
+/// `pcf`, a lookup offset, a kernel) re-renders no map view; one that changes what the maps hold
+/// (slope bias) re-renders them in the same memory; another map size reallocates. After each, the
+/// live engine equals a fresh one built with the new parameters.
+#[test]
+fn parameters_change_in_place_and_keep_the_maps_they_do_not_touch() {
+    let scene = load_scene("room").unwrap().scene;
+    let mut live = Live::new(scene, "hard:map_size=512");
+    live.frame();
+    assert_eq!(live.frame().map_views, 0, "a still frame re-renders nothing");
+    let set = |live: &mut Live, spec: &str| {
+        let technique = TechniqueSpec::parse(spec, &[]).unwrap();
+        for i in 0..live.renderer.scene().lights.len() as u32 {
+            live.renderer.set_technique(LightId(i), &technique).unwrap();
+        }
+        live.spec = spec.to_owned();
+        live.check(spec)
+    };
+    for spec in ["pcf:map_size=512", "pcf:map_size=512,taps=16,radius=2", "pcf:map_size=512,constant_bias=0.01"] {
+        let work = set(&mut live, spec);
+        assert_eq!(work.map_views, 0, "{spec}: the maps are kept: {work:?}");
+        assert!(work.resolves > 0, "{spec}: the lookup runs anew");
+    }
+    let work = set(&mut live, "pcf:map_size=512,constant_bias=0.01,slope_bias=4");
+    assert!(work.map_views > 0, "the slope bias changes every map: {work:?}");
+    let memory = live.renderer.shadows.memory_bytes();
+    let work = set(&mut live, "pcf:map_size=256");
+    assert!(work.map_views > 0, "another size: new maps: {work:?}");
+    assert!(live.renderer.shadows.memory_bytes() < memory, "the 512² maps were freed");
+    assert_eq!(live.frame().map_views, 0, "and then kept");
+}

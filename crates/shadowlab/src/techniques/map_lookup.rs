@@ -5,9 +5,12 @@
 
 use shadowlab_core::ParamSet;
 
+use crate::context::Shared;
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
-use crate::technique::{FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_resolve};
+use crate::technique::{
+    FrameContext, Handover, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_resolve,
+};
 
 /// Rewrites the part of a technique's own uniform that depends on the light (PCSS's emitter size),
 /// when the light's emitter changes.
@@ -117,5 +120,22 @@ impl ShadowTechnique for MapLookup {
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
         let m = self.map.as_ref()?;
         Some(MapAnalysis { lookup: m.group()?, selection: &m.selection })
+    }
+
+    fn hand_over(&mut self) -> Option<Handover> {
+        self.map.take().map(|m| Handover::Map(Box::new(m)))
+    }
+
+    /// Any of `hard`, `pcf`, `pcss` and `blurred` keeps another's map of the same size: they differ
+    /// only in the lookup.
+    fn take_over(&mut self, shared: &Shared, handover: Handover) -> Result<(), Handover> {
+        match handover {
+            Handover::Map(mut map) if self.map.is_none() && map.fits(&self.params) => {
+                map.set_params(shared, &self.params, self.linear);
+                self.map = Some(*map);
+                Ok(())
+            }
+            other => Err(other),
+        }
     }
 }

@@ -10,6 +10,7 @@
 
 use shadowlab_core::{LightId, Scene};
 
+use crate::auto::Preference;
 use crate::context::Shared;
 use crate::frame::{LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
@@ -83,6 +84,8 @@ pub struct Shadows {
     costs: CostModel,
     /// The frame time the scheduler keeps to (`None`: every fill in the frame that needs it).
     target_ms: Option<f64>,
+    /// Quality or speed: scales the target (issue 12: a run-time input beside it).
+    preference: Preference,
     /// Predicted render time of a frame without fills (ms): the part of the target work cannot use.
     render_ms: Option<f64>,
     /// Costs and render time are scripted: measurements leave them.
@@ -109,6 +112,7 @@ impl Shadows {
             cache: ShadowCache::default(),
             costs: CostModel::default(),
             target_ms: None,
+            preference: Preference::Balanced,
             render_ms: None,
             scripted: false,
             cap: usize::MAX,
@@ -285,8 +289,24 @@ impl Shadows {
         self.target_ms = target_ms.filter(|t| t.is_finite() && *t > 0.0);
     }
 
+    /// The target as set (before the preference).
     pub fn target_ms(&self) -> Option<f64> {
         self.target_ms
+    }
+
+    /// Quality or speed, at run time: the frame time kept to is the target × 2 (`Quality`: slower
+    /// frames, fills and upgrades sooner), × 1 (`Balanced`, the default) or × ½ (`Speed`).
+    pub fn set_preference(&mut self, preference: Preference) {
+        self.preference = preference;
+    }
+
+    pub fn preference(&self) -> Preference {
+        self.preference
+    }
+
+    /// The frame time kept to: the target scaled by the preference.
+    pub fn frame_target_ms(&self) -> Option<f64> {
+        self.target_ms.map(|t| t * self.preference.budget_factor())
     }
 
     /// Takes in a rendered frame's GPU times and work (what [`Shadows::record`] returned): the
@@ -310,7 +330,7 @@ impl Shadows {
         // measured frame time, with hysteresis.
         let frame = if fill_ms.is_finite() { fill_ms + render_ms } else { render_ms };
         let most = self.lights.iter().map(|s| s.rungs.len()).max().unwrap_or(1);
-        if let Some(target) = self.target_ms
+        if let Some(target) = self.frame_target_ms()
             && most > 1
             && frame.is_finite()
         {
@@ -441,7 +461,7 @@ impl Shadows {
                 s.uniform_version = state.colour_version;
             }
         }
-        let mut budget = match self.target_ms {
+        let mut budget = match self.frame_target_ms() {
             Some(target) => Budget::for_frame(target, self.render_ms.unwrap_or(0.0), BUDGET_MARGIN),
             None => Budget::unlimited(),
         };

@@ -265,3 +265,19 @@ fn the_lamp_nearest_the_eye_is_filled_first() {
         assert!(shown_at[&first] < shown_at[&other], "view {view}: shown at {shown_at:?}");
     }
 }
+
+/// The preference scales the target at run time: with `Quality` the 13 ms target becomes 26 ms, so
+/// the seven 1 ms views fit the first frame's 26 − 10 − 2.6 ms budget; balanced, one view a frame.
+#[test]
+fn a_preference_for_quality_doubles_the_frame_time_kept_to() {
+    let mut r = sliced();
+    r.shadows.set_preference(shadowlab::auto::Preference::Quality);
+    assert_eq!(r.shadows.frame_target_ms(), Some(26.0));
+    let w = r.render().unwrap().work;
+    assert_eq!(w.map_views - w.composite_views, 7, "{w:?}");
+    assert!(r.shadows.levels().iter().all(|l| l.1 == 1 && l.2), "{:?}", r.shadows.levels());
+    let mut r = sliced();
+    r.shadows.set_preference(shadowlab::auto::Preference::Speed);
+    let w = r.render().unwrap().work;
+    assert_eq!(w.map_views - w.composite_views, 1, "at least one unit a frame: {w:?}");
+}

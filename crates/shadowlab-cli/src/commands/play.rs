@@ -263,7 +263,9 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     };
     let mut r = Renderer::new(&gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
     r.shadows.set_caching(!args.no_cache);
-    r.set_target_ms(target.as_ref().map(|t| t.ms));
+    // The engine scales the target by the preference itself (the factors are powers of two: exact).
+    r.set_target_ms(target.as_ref().map(|t| t.ms / preference.budget_factor()));
+    r.shadows.set_preference(preference);
     let none = TechniqueSpec::parse("none", &[])?;
     if let Some(plan) = specs.iter().find_map(Selected::auto) {
         for line in plan.describe() {

@@ -1,6 +1,6 @@
 //! Temporary (dragged) objects (Toromanoff 2005 §3.3, his option 5): while an instance is
 //! temporary, every cached item leaves it out, so dragging invalidates nothing; it casts through a
-//! pass of its own each frame instead: a small map per light fitted to the object (one frustum, or
+//! pass of its own each frame instead: a small map per light fitted to the object ([`map_size`]) (one frustum, or
 //! six faces when the light is inside its bounds; an orthographic box for directional lights),
 //! looked up after the light's technique has written its visibility, which is multiplied by the
 //! object's hard shadow. On release the object becomes permanent again and the items it reaches
@@ -20,8 +20,13 @@ use crate::frame::VisibilityLayer;
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
 use crate::technique::{FrameContext, dispatch_resolve};
 
-/// Texels per side of a temporary object's map: the object alone fills it.
-pub const MAP_SIZE: u32 = 1024;
+/// Texels per side of a temporary object's map (the object alone fills it) for an output of
+/// `width × height`: twice the output's larger side, as a power of two within 256..=1024. The
+/// object's shadow covers at most the screen, so more texels than about two per pixel across it
+/// buy nothing, and a drag frame on a small output should not pay for a 1024² map per light.
+pub fn map_size(width: u32, height: u32) -> u32 {
+    (2 * width.max(height)).next_power_of_two().clamp(256, 1024)
+}
 
 /// Temporary views are allocated in groups of this many.
 const VIEW_STEP: u32 = 8;
@@ -48,7 +53,7 @@ pub struct TemporaryShadows {
 impl TemporaryShadows {
     pub fn new(shared: &Shared) -> Self {
         let device = &shared.gpu.device;
-        let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, MAP_SIZE as f32, 0.0), mode: Vec4::ZERO };
+        let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, 0.0, 0.0), mode: Vec4::ZERO };
         Self {
             raw: None,
             maps: None,
@@ -84,18 +89,21 @@ impl TemporaryShadows {
     /// layer × their shadows.
     pub fn apply(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let shared = ctx.shared;
+        let size = map_size(ctx.surface.width, ctx.surface.height);
         let mut views: Vec<ShadowView> = Vec::new();
         for (inst, state) in ctx.live.scene().instances.iter().zip(ctx.live.instances()) {
             if inst.mobility == Mobility::Temporary && inst.casts_shadows {
-                views.extend(light_frusta(ctx.light, &padded(&state.bounds), MAP_SIZE).views);
+                views.extend(light_frusta(ctx.light, &padded(&state.bounds), size).views);
             }
         }
         let n = views.len() as u32;
-        if self.maps.as_ref().is_none_or(|(m, _)| m.layers < n) {
+        if self.maps.as_ref().is_none_or(|(m, _)| m.layers < n || m.size != size) {
             // Room for views in steps of eight, so that objects picked up and released in turn do
             // not reallocate (and memory stays put under any sequence of drags).
             let capacity = n.div_ceil(VIEW_STEP).max(1) * VIEW_STEP;
-            let maps = ShadowMapArray::new(shared, MAP_SIZE, capacity, capacity);
+            let maps = ShadowMapArray::new(shared, size, capacity, capacity);
+            let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, size as f32, 0.0), mode: Vec4::ZERO };
+            ctx.gpu.queue.write_buffer(&self.bias, 0, bytemuck::bytes_of(&bias));
             let group = lookup_group(shared, &maps, &self.bias, false);
             self.maps = Some((maps, group));
         }

@@ -12,10 +12,10 @@ use shadowlab_core::{LightId, Scene};
 
 use crate::auto::Preference;
 use crate::context::Shared;
-use crate::frame::{LightUniform, SurfaceInputs, VisibilityLayer};
+use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
-use crate::live::scheduler::{Adaptation, Budget, CostModel, Step};
+use crate::live::scheduler::{Adaptation, Budget, CostModel, Step, screen_share};
 use crate::live::temporary::TemporaryShadows;
 use crate::live::validity::screen_signature;
 use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Signature, Work};
@@ -429,18 +429,26 @@ impl Shadows {
 
     /// Records every light's prepare and resolve into `encoder`; returns what was re-rendered.
     /// The order in which lights take the frame's budget (Toromanoff alg. 13; issue 12's priority):
-    /// lights showing no shadow yet first (their receivers lack any), then the nearest to the eye
-    /// first (a directional light reaches every pixel: distance 0), ties in id order. Lights whose
-    /// fills fit the budget all run whatever the order; it decides who waits when they do not.
-    fn fill_order(&self, eye: glam::Vec3) -> Vec<usize> {
-        let key = |s: &LightShadow| {
-            let distance = self.live.light(s.light).and_then(|l| l.position()).map_or(0.0, |p| p.distance(eye));
-            (s.shown.is_some(), if distance.is_finite() { distance } else { f32::MAX })
+    /// lights showing no shadow yet first (their receivers lack any), then the largest share of
+    /// the screen ([`screen_share`]), then the nearest to the eye (a directional light reaches
+    /// every pixel: distance 0), ties in id order. Lights whose fills fit the budget all run
+    /// whatever the order; it decides who waits when they do not.
+    fn fill_order(&self, camera: &CameraUniform) -> Vec<usize> {
+        let view = camera.view();
+        let (eye, forward) = (view.position, (view.target - view.position).normalize_or(glam::Vec3::NEG_Z));
+        let finite = |x: f32| if x.is_finite() { x } else { f32::MAX };
+        let key = |s: &LightShadow| match self.live.light(s.light) {
+            Some(l) => {
+                let share = screen_share(l, eye, forward, view.fov_y, camera.aspect());
+                let distance = l.position().map_or(0.0, |p| p.distance(eye));
+                (s.shown.is_some(), -share, finite(distance))
+            }
+            None => (s.shown.is_some(), 0.0, f32::MAX),
         };
         let mut order: Vec<usize> = (0..self.lights.len()).collect();
         order.sort_by(|&a, &b| {
             let (ka, kb) = (key(&self.lights[a]), key(&self.lights[b]));
-            ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+            ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1)).then(ka.2.total_cmp(&kb.2))
         });
         order
     }
@@ -469,7 +477,7 @@ impl Shadows {
         // anyone's upgrade), each rung's fills within the frame's budget, lights in priority order.
         let rungs = self.lights.iter().map(|s| s.rungs.len()).max().unwrap_or(0).min(self.cap.max(1));
         let mut rebuilt = vec![false; self.lights.len()];
-        let order = self.fill_order(surface.camera.position.truncate());
+        let order = self.fill_order(&surface.camera);
         for r in 0..rungs {
             for &k in &order {
                 let s = &mut self.lights[k];

@@ -227,9 +227,60 @@ impl Adaptation {
     }
 }
 
+/// The share of the screen a light may shade (0..=1), for the order in which lights take the
+/// budget (issue 12: "largest on screen first"): its range's sphere projected from the eye as a
+/// disk, as a fraction of the view's area; 1 for lights without a position or a range, or when the
+/// eye is within reach; 0 when the sphere is wholly behind the eye. The disk is taken as if on the
+/// view axis: an estimate for ordering, not a bound.
+pub fn screen_share(
+    light: &shadowlab_core::Light,
+    eye: glam::Vec3,
+    forward: glam::Vec3,
+    fov_y: f32,
+    aspect: f32,
+) -> f32 {
+    let (Some(position), Some(range)) = (light.position(), light.range) else { return 1.0 };
+    let to = position - eye;
+    let d = to.length();
+    if !(d.is_finite() && range.is_finite()) || d <= range {
+        return 1.0;
+    }
+    if to.dot(forward) < -range {
+        return 0.0;
+    }
+    // Apparent radius over the half-height of the view, then the disk's area over the view's.
+    let r = (range / d).asin().tan() / (0.5 * fov_y).tan().max(1e-6);
+    (std::f32::consts::PI * r * r / (4.0 * aspect.max(1e-6))).clamp(0.0, 1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lights_screen_share_grows_as_the_eye_nears_it() {
+        use glam::Vec3;
+        use shadowlab_core::{Light, LightKind};
+        let lamp = |range: f32| {
+            Light::new("l", LightKind::Point { position: Vec3::ZERO, radius: 0.0 }, Vec3::ONE, 1.0).with_range(range)
+        };
+        let fov = 60f32.to_radians();
+        let share = |l: &Light, z: f32| screen_share(l, Vec3::new(0.0, 0.0, z), Vec3::NEG_Z, fov, 1.0);
+        // Range 1 seen from 10 m: radius tan(asin 0.1) / tan 30° = 0.174 of the half-height;
+        // π r² / 4 = 0.0238 of the view.
+        assert!((share(&lamp(1.0), 10.0) - 0.0238).abs() < 1e-3, "{}", share(&lamp(1.0), 10.0));
+        assert!(share(&lamp(1.0), 5.0) > share(&lamp(1.0), 10.0));
+        assert!(share(&lamp(2.0), 10.0) > share(&lamp(1.0), 10.0));
+        assert_eq!(share(&lamp(1.0), 0.5), 1.0, "within reach");
+        assert_eq!(share(&lamp(1.0), -10.0), 0.0, "behind the eye");
+        let unbounded = Light::new("u", LightKind::Point { position: Vec3::ZERO, radius: 0.0 }, Vec3::ONE, 1.0);
+        assert_eq!(share(&unbounded, 100.0), 1.0);
+        let sun =
+            Light::new("s", LightKind::Directional { direction: Vec3::NEG_Y, angular_radius: 0.0 }, Vec3::ONE, 1.0);
+        assert_eq!(share(&sun, 100.0), 1.0);
+        let far = screen_share(&lamp(1.0), Vec3::splat(f32::NAN), Vec3::NEG_Z, fov, 1.0);
+        assert!((0.0..=1.0).contains(&far), "NaN eye: {far}");
+    }
 
     #[test]
     fn the_budget_admits_at_least_one_unit_and_never_more_than_its_limit() {

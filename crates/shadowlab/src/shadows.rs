@@ -15,7 +15,7 @@ use crate::context::Shared;
 use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
-use crate::live::scheduler::{Adaptation, Budget, CostModel, Step, screen_share};
+use crate::live::scheduler::{Adaptation, Budget, CostModel, Step, UnitCounts, screen_share};
 use crate::live::temporary::TemporaryShadows;
 use crate::live::validity::screen_signature;
 use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Signature, Work};
@@ -86,6 +86,9 @@ pub struct Shadows {
     target_ms: Option<f64>,
     /// Quality or speed: scales the target (issue 12: a run-time input beside it).
     preference: Preference,
+    /// The units of work the last frame ran, by kind and size (what [`Shadows::observe`] shares
+    /// the frame's measured time among).
+    last_units: UnitCounts,
     /// Predicted render time of a frame without fills (ms): the part of the target work cannot use.
     render_ms: Option<f64>,
     /// Costs and render time are scripted: measurements leave them.
@@ -113,6 +116,7 @@ impl Shadows {
             costs: CostModel::default(),
             target_ms: None,
             preference: Preference::Balanced,
+            last_units: UnitCounts::new(),
             render_ms: None,
             scripted: false,
             cap: usize::MAX,
@@ -313,14 +317,9 @@ impl Shadows {
     /// cost model behind the budget learns from them. `fill_ms` is the time of the fills (the
     /// shadow passes), `render_ms` that of the rest of the frame.
     pub fn observe(&mut self, work: &Work, fill_ms: f64, render_ms: f64) {
-        use crate::live::scheduler::UnitKind;
-        let units = [
-            (UnitKind::MapView, work.map_views),
-            (UnitKind::LightMapSample, work.lightmap_samples),
-            (UnitKind::VolumeObject, work.volume_objects),
-        ];
-        if units.iter().any(|u| u.1 > 0) {
-            self.costs.observe_frame(&units, fill_ms);
+        // The units behind `work`, by kind and size, as the last `record` counted them.
+        if work.rebuilt_anything() && !self.last_units.is_empty() {
+            self.costs.observe_frame(&self.last_units, fill_ms);
         }
         if render_ms.is_finite() && render_ms >= 0.0 && !self.scripted {
             let r = self.render_ms.get_or_insert(render_ms);
@@ -560,6 +559,7 @@ impl Shadows {
             }
         }
         let mut work = self.cache.begin_frame();
+        self.last_units = self.cache.take_units();
         work.deferred = budget.deferred;
         work.budget_ms = if budget.is_unlimited() { f64::INFINITY } else { budget.limit_ms() };
         work.planned_ms = budget.spent_ms();

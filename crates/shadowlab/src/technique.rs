@@ -16,7 +16,7 @@ use crate::frame::{SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
 use crate::light_map::LightMap;
-use crate::live::scheduler::{Budget, CostModel};
+use crate::live::scheduler::{Budget, CostModel, UnitKind, UnitSize, count_units};
 use crate::live::{LiveScene, ShadowCache};
 use crate::timing::GpuTimer;
 
@@ -77,6 +77,19 @@ pub struct FrameContext<'a> {
     pub budget: &'a mut Budget,
     /// Predicted costs of units of work.
     pub costs: &'a CostModel,
+}
+
+impl FrameContext<'_> {
+    /// Charges `count` units of `kind`, each of `size` (texels, faces), to the frame's budget:
+    /// false when they do not fit (the work is left for a later frame). Units that run are
+    /// counted for the cost model, which learns each kind and size's cost from the frame's time.
+    pub fn take_units(&mut self, kind: UnitKind, size: UnitSize, count: u32) -> bool {
+        if !self.budget.take(self.costs.predict(kind, size) * f64::from(count)) {
+            return false;
+        }
+        count_units(&mut self.cache.units, kind, size, count);
+        true
+    }
 }
 
 /// The maps a technique looks up, for the analysis overlays (`shadowlab render --overlay`).

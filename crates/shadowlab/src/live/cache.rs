@@ -11,6 +11,7 @@ use std::collections::HashMap;
 
 use shadowlab_core::LightId;
 
+use super::scheduler::UnitCounts;
 use super::validity::{ItemKind, Signature};
 
 /// A cached item's address.
@@ -82,11 +83,20 @@ pub struct ShadowCache {
     generation: u64,
     /// This frame's work so far.
     pub work: Work,
+    /// This frame's units of work by kind and size, for the cost model.
+    pub units: UnitCounts,
 }
 
 impl Default for ShadowCache {
     fn default() -> Self {
-        Self { records: HashMap::new(), enabled: true, next_owner: 1, generation: 0, work: Work::default() }
+        Self {
+            records: HashMap::new(),
+            enabled: true,
+            next_owner: 1,
+            generation: 0,
+            work: Work::default(),
+            units: UnitCounts::new(),
+        }
     }
 }
 
@@ -169,5 +179,10 @@ impl ShadowCache {
     /// Starts a frame's work counts.
     pub fn begin_frame(&mut self) -> Work {
         std::mem::take(&mut self.work)
+    }
+
+    /// The frame's units by kind and size (cleared).
+    pub fn take_units(&mut self) -> UnitCounts {
+        std::mem::take(&mut self.units)
     }
 }

@@ -276,8 +276,8 @@ impl MapViews {
                 continue; // rendered in an earlier frame for this very state
             }
             let units = 1 + u32::from(composite_sig.is_some());
-            let cost = ctx.costs.predict(UnitKind::MapView) * f64::from(units);
-            if !in_place && !ctx.budget.take(cost) {
+            let texels = u64::from(self.maps.size).pow(2);
+            if !ctx.take_units(UnitKind::MapView, texels, units) {
                 done = false;
                 continue;
             }

@@ -28,21 +28,48 @@ pub enum UnitKind {
 impl UnitKind {
     pub const ALL: [UnitKind; 3] = [Self::MapView, Self::LightMapSample, Self::VolumeObject];
 
-    /// The cost assumed before anything was measured (ms on a CPU rasteriser, a conservative start).
-    fn prior_ms(self) -> f64 {
+    /// The cost assumed before anything was measured (ms on a CPU rasteriser, a conservative
+    /// start) for a unit of the size given: a 1024² map view, a light-map sample into 256² texels,
+    /// the volumes of a 1,024-face object.
+    fn prior(self) -> (f64, UnitSize) {
         match self {
-            Self::MapView => 4.0,
-            Self::LightMapSample => 1.0,
-            Self::VolumeObject => 0.2,
+            Self::MapView => (4.0, 1 << 20),
+            Self::LightMapSample => (1.0, 1 << 16),
+            Self::VolumeObject => (0.2, 1 << 10),
         }
     }
 }
 
-/// Running estimates of what a unit costs, per kind: an exponential moving average of measured
-/// GPU milliseconds per unit.
+/// How big a unit is, in what its cost grows with: texels for map views and light-map samples,
+/// faces for an object's volumes.
+pub type UnitSize = u64;
+
+/// A unit size's class: ⌈log₂ size⌉ (units within a factor of two share an estimate).
+pub fn size_class(size: UnitSize) -> u8 {
+    (u64::BITS - size.max(1).saturating_sub(1).leading_zeros()) as u8
+}
+
+/// Units run in a frame: `(kind, size class, count)`, what a frame's measured time is shared among.
+pub type UnitCounts = Vec<(UnitKind, u8, u32)>;
+
+/// Adds `count` units of `kind` and `size` to `counts`.
+pub fn count_units(counts: &mut UnitCounts, kind: UnitKind, size: UnitSize, count: u32) {
+    let class = size_class(size);
+    match counts.iter_mut().find(|c| c.0 == kind && c.1 == class) {
+        Some(c) => c.2 += count,
+        None => counts.push((kind, class, count)),
+    }
+}
+
+/// Running estimates of what a unit costs, per kind and size class: an exponential moving average
+/// of measured GPU milliseconds per unit. A class not measured yet is predicted from the nearest
+/// measured class of its kind, or from the prior: scaled up in proportion to size from a smaller
+/// class, kept as is from a larger one.
 #[derive(Debug, Clone)]
 pub struct CostModel {
-    estimates: HashMap<UnitKind, f64>,
+    estimates: HashMap<(UnitKind, u8), f64>,
+    /// Scripted costs per kind, whatever the size.
+    fixed: HashMap<UnitKind, f64>,
     /// Weight of a new measurement (0.25: a quarter of the estimate moves each time; 0: scripted
     /// costs that measurements do not change).
     pub smoothing: f64,
@@ -50,46 +77,66 @@ pub struct CostModel {
 
 impl Default for CostModel {
     fn default() -> Self {
-        Self { estimates: HashMap::new(), smoothing: 0.25 }
+        Self { estimates: HashMap::new(), fixed: HashMap::new(), smoothing: 0.25 }
     }
 }
 
 impl CostModel {
-    /// Fixed costs (ms per unit of each kind) that measurements leave as they are: a scripted clock
-    /// for deterministic tests and for applications that know their costs.
+    /// Fixed costs (ms per unit of each kind, whatever its size) that measurements leave as they
+    /// are: a scripted clock for deterministic tests and for applications that know their costs.
     pub fn scripted(costs: &[(UnitKind, f64)]) -> Self {
-        Self { estimates: costs.iter().copied().collect(), smoothing: 0.0 }
+        Self { estimates: HashMap::new(), fixed: costs.iter().copied().collect(), smoothing: 0.0 }
     }
 
-    /// The predicted cost of one unit of `kind`, in ms.
-    pub fn predict(&self, kind: UnitKind) -> f64 {
-        self.estimates.get(&kind).copied().unwrap_or_else(|| kind.prior_ms())
+    /// The predicted cost of one unit of `kind` and `size`, in ms.
+    pub fn predict(&self, kind: UnitKind, size: UnitSize) -> f64 {
+        if let Some(&ms) = self.fixed.get(&kind) {
+            return ms;
+        }
+        let class = size_class(size);
+        // Up from a smaller class in proportion to size; never down (a pass's fixed cost dominates
+        // small units): predictions err towards frames under the target.
+        let scaled = |ms: f64, from: u8| ms * 2f64.powi((i32::from(class) - i32::from(from)).max(0));
+        if let Some(&ms) = self.estimates.get(&(kind, class)) {
+            return ms;
+        }
+        let nearest = self
+            .estimates
+            .iter()
+            .filter(|((k, _), _)| *k == kind)
+            .min_by_key(|((_, c), _)| (c.abs_diff(class), *c))
+            .map(|((_, c), &ms)| scaled(ms, *c));
+        nearest.unwrap_or_else(|| {
+            let (ms, at) = kind.prior();
+            scaled(ms, size_class(at))
+        })
     }
 
-    /// Takes in a measurement: `units` units of `kind` took `ms` together. Non-finite or negative
-    /// measurements are ignored.
-    pub fn observe(&mut self, kind: UnitKind, units: u32, ms: f64) {
-        if units == 0 || !ms.is_finite() || ms < 0.0 {
+    /// Takes in a measurement: `units` units of `kind` and `size` took `ms` together. Non-finite
+    /// or negative measurements are ignored, and so are all under a scripted clock.
+    pub fn observe(&mut self, kind: UnitKind, size: UnitSize, units: u32, ms: f64) {
+        if units == 0 || !ms.is_finite() || ms < 0.0 || self.fixed.contains_key(&kind) {
             return;
         }
         let per_unit = ms / f64::from(units);
         let alpha = self.smoothing.clamp(0.0, 1.0);
-        let e = self.estimates.entry(kind).or_insert(per_unit);
+        let e = self.estimates.entry((kind, size_class(size))).or_insert(per_unit);
         *e += alpha * (per_unit - *e);
     }
 
     /// Takes in one frame's measured work time, shared among the units run in proportion to their
     /// predicted costs (a frame's timestamps do not tell units apart).
-    pub fn observe_frame(&mut self, units: &[(UnitKind, u32)], work_ms: f64) {
-        let predicted: f64 = units.iter().map(|&(k, n)| self.predict(k) * f64::from(n)).sum();
+    pub fn observe_frame(&mut self, units: &[(UnitKind, u8, u32)], work_ms: f64) {
+        let size = |class: u8| 1u64 << class.min(63);
+        let predicted: f64 = units.iter().map(|&(k, c, n)| self.predict(k, size(c)) * f64::from(n)).sum();
         if predicted <= 0.0 || !work_ms.is_finite() || work_ms < 0.0 {
             return;
         }
         let scale = work_ms / predicted;
-        let observed: Vec<(UnitKind, u32, f64)> =
-            units.iter().map(|&(k, n)| (k, n, self.predict(k) * f64::from(n) * scale)).collect();
-        for (k, n, ms) in observed {
-            self.observe(k, n, ms);
+        let observed: Vec<(UnitKind, u8, u32, f64)> =
+            units.iter().map(|&(k, c, n)| (k, c, n, self.predict(k, size(c)) * f64::from(n) * scale)).collect();
+        for (k, c, n, ms) in observed {
+            self.observe(k, size(c), n, ms);
         }
     }
 }
@@ -322,24 +369,47 @@ mod tests {
 
     #[test]
     fn cost_estimates_follow_measurements() {
+        const MAP: UnitSize = 1 << 20;
         let mut m = CostModel::default();
-        assert_eq!(m.predict(UnitKind::MapView), UnitKind::MapView.prior_ms());
+        assert_eq!(m.predict(UnitKind::MapView, MAP), UnitKind::MapView.prior().0);
+        assert_eq!(
+            m.predict(UnitKind::MapView, 4 * MAP),
+            4.0 * UnitKind::MapView.prior().0,
+            "the prior grows with size"
+        );
+        assert_eq!(m.predict(UnitKind::MapView, MAP / 4), UnitKind::MapView.prior().0, "but does not shrink");
         for _ in 0..50 {
-            m.observe(UnitKind::MapView, 4, 8.0);
+            m.observe(UnitKind::MapView, MAP, 4, 8.0);
         }
-        assert!((m.predict(UnitKind::MapView) - 2.0).abs() < 1e-3);
-        m.observe(UnitKind::MapView, 0, 100.0);
-        m.observe(UnitKind::MapView, 1, f64::NAN);
-        assert!((m.predict(UnitKind::MapView) - 2.0).abs() < 1e-3, "ignored");
+        assert!((m.predict(UnitKind::MapView, MAP) - 2.0).abs() < 1e-3);
+        m.observe(UnitKind::MapView, MAP, 0, 100.0);
+        m.observe(UnitKind::MapView, MAP, 1, f64::NAN);
+        assert!((m.predict(UnitKind::MapView, MAP) - 2.0).abs() < 1e-3, "ignored");
+        // Sizes within a factor of two share an estimate; others are predicted from the nearest
+        // measured class until measured themselves (up in proportion, not down).
+        assert!((m.predict(UnitKind::MapView, MAP - 1000) - 2.0).abs() < 1e-3);
+        assert!((m.predict(UnitKind::MapView, MAP / 4) - 2.0).abs() < 1e-3);
+        assert!((m.predict(UnitKind::MapView, MAP * 4) - 8.0).abs() < 1e-3);
+        for _ in 0..50 {
+            m.observe(UnitKind::MapView, MAP / 4, 1, 1.5);
+        }
+        assert!((m.predict(UnitKind::MapView, MAP / 4) - 1.5).abs() < 1e-3, "measured: its own estimate");
+        assert!((m.predict(UnitKind::MapView, MAP) - 2.0).abs() < 1e-3, "the other class kept its own");
         // A frame's time is shared in proportion to the predictions.
         let mut m = CostModel { smoothing: 1.0, ..CostModel::default() };
-        m.observe(UnitKind::MapView, 1, 3.0);
-        m.observe(UnitKind::LightMapSample, 1, 1.0);
-        m.observe_frame(&[(UnitKind::MapView, 2), (UnitKind::LightMapSample, 2)], 16.0);
+        m.observe(UnitKind::MapView, MAP, 1, 3.0);
+        m.observe(UnitKind::LightMapSample, 1 << 16, 1, 1.0);
+        m.observe_frame(&[(UnitKind::MapView, 20, 2), (UnitKind::LightMapSample, 16, 2)], 16.0);
         assert!(
-            (m.predict(UnitKind::MapView) - 6.0).abs() < 1e-9
-                && (m.predict(UnitKind::LightMapSample) - 2.0).abs() < 1e-9
+            (m.predict(UnitKind::MapView, MAP) - 6.0).abs() < 1e-9
+                && (m.predict(UnitKind::LightMapSample, 1 << 16) - 2.0).abs() < 1e-9
         );
+        // Scripted costs hold whatever the size and whatever is observed.
+        let mut m = CostModel::scripted(&[(UnitKind::MapView, 1.0)]);
+        m.observe(UnitKind::MapView, MAP, 1, 50.0);
+        assert_eq!((m.predict(UnitKind::MapView, 1), m.predict(UnitKind::MapView, 1 << 30)), (1.0, 1.0));
+        assert_eq!(size_class(1), 0);
+        assert_eq!((size_class(1024), size_class(1025), size_class(u64::MAX)), (10, 11, 64));
     }
 
     /// A frame time that hovers around the target (±15%, deterministic) must not make the level

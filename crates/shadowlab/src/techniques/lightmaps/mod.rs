@@ -169,6 +169,14 @@ struct State {
     bytes: u64,
 }
 
+/// A patch's light map in texels: `texel` metres each, at most `max_texels` a side.
+fn texels(params: &ParamSet, p: &Patch) -> (u32, u32) {
+    let texel = params.float("texel") as f32;
+    let max = params.int("max_texels") as u32;
+    let n = |len: f32| ((len / texel).ceil().max(1.0) as u32).min(max);
+    (n(p.width), n(p.height))
+}
+
 fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("lightmaps lookup", || {
         let c = wgpu::ShaderStages::COMPUTE;
@@ -310,10 +318,7 @@ struct SmoothieSet {
 impl Lightmaps {
     /// Texels across a patch (the `texel` size, at most `max_texels`).
     fn texels(&self, p: &Patch) -> (u32, u32) {
-        let texel = self.params.float("texel") as f32;
-        let max = self.params.int("max_texels") as u32;
-        let n = |len: f32| ((len / texel).ceil().max(1.0) as u32).min(max);
-        (n(p.width), n(p.height))
+        texels(&self.params, p)
     }
 
     /// The emitter samples, in progressive order: any prefix is spread over the whole emitter, so
@@ -731,14 +736,17 @@ impl ShadowTechnique for Lightmaps {
         }
         if !stale.is_empty() {
             let back = state.back_layers(ctx);
-            let cost = ctx.costs.predict(UnitKind::LightMapSample);
-            // Smoothie fills are one unit (one pass); sampled ones one unit per sample.
+            // Smoothie fills are one pass for all samples; sampled ones one pass per sample.
             let per_unit = if smoothie_fill { samples.len() } else { 1 };
             'rungs: for rung in sample_ladder(samples.len() as u32) {
                 for &k in &stale {
                     let first = state.accumulated[k] as usize;
+                    let (w, h) = texels(&self.params, &state.patches[k]);
+                    let size = u64::from(w) * u64::from(h);
                     let mut count = 0;
-                    while first + count < rung as usize && ctx.budget.take(cost * per_unit as f64) {
+                    while first + count < rung as usize
+                        && ctx.take_units(UnitKind::LightMapSample, size, per_unit as u32)
+                    {
                         count += per_unit;
                     }
                     let count = count.min(samples.len() - first);

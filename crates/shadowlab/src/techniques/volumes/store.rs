@@ -405,7 +405,8 @@ impl Store {
                     continue;
                 }
                 // One object's volumes for one light sample is a unit of the frame's budget (alg. 14).
-                if !ctx.budget.take(ctx.costs.predict(crate::live::scheduler::UnitKind::VolumeObject)) {
+                let faces = u64::from(topology.meshes[c.mesh].faces);
+                if !ctx.take_units(crate::live::scheduler::UnitKind::VolumeObject, faces, 1) {
                     deferred = true;
                     continue;
                 }

@@ -12,6 +12,7 @@
 //! assert!(scene.view("default").is_some());
 //! ```
 
+pub mod backprojection;
 pub mod bounds;
 pub mod camera;
 pub mod cascades;

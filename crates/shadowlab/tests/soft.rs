@@ -70,34 +70,6 @@ fn visibility_is_bounded_lit_far_away_and_dark_in_the_umbra() {
     }
 }
 
-/// The width of the shadow boundary on the ground along +x (|z| < 0.1 m), from V's profile:
-/// 4 ∫ min(V, 1 − V) dx, which is the width of a linear ramp and robust to noise.
-fn boundary_width(run: &common::Run, v: &[f32]) -> f32 {
-    // 2.4 cm bins: over a pixel (1.6 cm on the ground in the 256² top view).
-    let bins = 40;
-    // From the top view the occluder hides the ground inside x = 0.625.
-    let (x0, x1) = (0.63f32, 1.6f32);
-    let mut sum = vec![0.0f32; bins];
-    let mut count = vec![0u32; bins];
-    for (i, &x) in v.iter().enumerate() {
-        let p = run.surface.positions[i];
-        if x.is_nan() || !run.surface.covered[i] || p.y > 0.01 || p.z.abs() > 0.1 || p.x < x0 || p.x >= x1 {
-            continue;
-        }
-        let b = (((p.x - x0) / (x1 - x0)) * bins as f32) as usize;
-        sum[b] += x;
-        count[b] += 1;
-    }
-    let dx = (x1 - x0) / bins as f32;
-    let mut width = 0.0;
-    for b in 0..bins {
-        assert!(count[b] > 0, "bin {b} empty: the image is too small for the profile");
-        let m = sum[b] / count[b] as f32;
-        width += 4.0 * m.min(1.0 - m) * dx;
-    }
-    width
-}
-
 #[test]
 fn penumbra_width_grows_with_the_light_as_the_closed_form_says() {
     let gpu = gpu();
@@ -113,7 +85,7 @@ fn penumbra_width_grows_with_the_light_as_the_closed_form_says() {
                 .zip(&run.surface.positions)
                 .map(|(x, &p)| if x.is_nan() { f32::NAN } else { setup.visibility(p) })
                 .collect();
-            let (w, w_exact) = (boundary_width(&run, &v), boundary_width(&run, &exact));
+            let (w, w_exact) = (common::boundary_width(&run, &v), common::boundary_width(&run, &exact));
             // The map's texel on the ground: the hard map's view of the light's centre.
             let light = &scene.lights[0];
             let map = if spec.contains("sampled") { 512 } else { 2048 };

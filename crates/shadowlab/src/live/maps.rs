@@ -85,6 +85,9 @@ pub struct MapViews {
     generation: u32,
     /// Whether the layers shown hold the current state.
     current: bool,
+    /// Bumped whenever what the lookups read changes (a layer shown, re-rendered or swapped), for
+    /// what is derived from the maps (`ssm`'s depth pyramid).
+    shown_version: u64,
     /// Draws issued by the last update.
     pub draws: u32,
 }
@@ -106,6 +109,7 @@ impl MapViews {
             free: (0..count).rev().collect(),
             generation: 0,
             current: false,
+            shown_version: 0,
             draws: 0,
         }
     }
@@ -146,6 +150,18 @@ impl MapViews {
     /// Whether the layers shown hold the current state (nothing pending).
     pub fn current(&self) -> bool {
         self.current
+    }
+
+    /// Changes whenever what the lookups read changes: derived data (a depth pyramid) made for
+    /// another version is stale.
+    pub fn shown_version(&self) -> u64 {
+        self.shown_version
+    }
+
+    /// The view that view `i`'s lookups read (the last complete state while an update is spread
+    /// over frames); `None` before its first.
+    pub fn shown_view(&self, i: u32) -> Option<&ShadowView> {
+        self.written.get(i as usize)?.as_ref().map(|w| &w.0)
     }
 
     fn key(&self, ctx: &FrameContext<'_>, kind: ItemKind, i: u32) -> ItemKey {
@@ -220,6 +236,7 @@ impl MapViews {
                 rendered += 1;
             }
             self.current = true;
+            self.shown_version += 1;
             self.write_layers(&queue);
             return Ok(rendered);
         }
@@ -333,6 +350,7 @@ impl MapViews {
             give_back(&mut self.free, &old, Some(&layers));
         }
         self.front[i as usize] = Some(layers);
+        self.shown_version += 1;
     }
 
     /// Renders view `i` for the state of `static_sig` / `composite_sig`: in its shown layers
@@ -409,6 +427,7 @@ impl MapViews {
             {
                 self.maps.set_view_layer(queue, i as u32, &view, layer);
                 self.written[i] = shown;
+                self.shown_version += 1;
             }
         }
     }

@@ -11,6 +11,7 @@ mod pcf;
 mod pcss;
 mod sampled;
 mod smoothies;
+mod ssm;
 mod volumes;
 
 use crate::technique::TechniqueInfo;
@@ -32,4 +33,5 @@ pub(crate) static REGISTRY: &[TechniqueInfo] = &[
     cssm::INFO,
     smoothies::INFO,
     lightmaps::INFO,
+    ssm::INFO,
 ];

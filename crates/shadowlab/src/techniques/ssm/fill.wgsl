@@ -1,0 +1,99 @@
+// `ssm`'s passes after `classify` (ssm.wgsl): the indirect dispatch of the listed pixels, and the
+// pull-push reconstruction of the pixels left out by screen-space adaptive sampling (Guennebaud et
+// al. 2007 §5.2, after Gortler et al. 1996): pull averages (visibility × weight, weight) down a
+// pyramid until every texel has data; push fills each level's gaps from the one below,
+// bilinearly; computed pixels (weight 1) are never changed. The last push writes the layer.
+
+// #include "resolve.wgsl"
+
+struct Work {
+    count: atomic<u32>,
+};
+
+struct Level {
+    // x: offset, y: width, z: height of the level written; w: unused.
+    dst: vec4<u32>,
+    // The same for the level read.
+    src: vec4<u32>,
+};
+
+@group(2) @binding(2) var<storage, read_write> vbuf: array<vec2<f32>>;
+@group(2) @binding(3) var<storage, read_write> work: Work;
+@group(3) @binding(0) var<uniform> level: Level;
+@group(3) @binding(1) var<storage, read_write> args: array<u32>;
+
+@compute @workgroup_size(1)
+fn dispatch_args() {
+    args[0] = (atomicLoad(&work.count) + 63u) / 64u;
+    args[1] = 1u;
+    args[2] = 1u;
+}
+
+fn at(l: vec4<u32>, x: u32, y: u32) -> vec2<f32> {
+    return vbuf[l.x + min(y, l.z - 1u) * l.y + min(x, l.y - 1u)];
+}
+
+// Level k + 1 from level k: weights add up (to at most 1), visibility is their weighted mean.
+@compute @workgroup_size(8, 8)
+fn pull(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= level.dst.y || id.y >= level.dst.z) {
+        return;
+    }
+    var sum = 0.0;
+    var weight = 0.0;
+    for (var dy = 0u; dy < 2u; dy = dy + 1u) {
+        for (var dx = 0u; dx < 2u; dx = dx + 1u) {
+            let x = 2u * id.x + dx;
+            let y = 2u * id.y + dy;
+            if (x < level.src.y && y < level.src.z) {
+                let c = vbuf[level.src.x + y * level.src.y + x];
+                sum = sum + c.x * c.y;
+                weight = weight + c.y;
+            }
+        }
+    }
+    var v = 0.0;
+    if (weight > 0.0) {
+        v = sum / weight;
+    }
+    vbuf[level.dst.x + id.y * level.dst.y + id.x] = vec2<f32>(v, min(weight, 1.0));
+}
+
+// Level k's value at texel (x, y) with its gaps filled from level k + 1 (`level.src`), bilinearly.
+fn pushed(x: u32, y: u32) -> f32 {
+    let c = vbuf[level.dst.x + y * level.dst.y + x];
+    if (c.y >= 1.0 || level.src.y == 0u) {
+        return c.x;
+    }
+    // Texel centres of the coarse level sit at fine coordinates 2i + 1.
+    let f = (vec2<f32>(f32(x), f32(y)) + vec2<f32>(0.5)) * 0.5 - vec2<f32>(0.5);
+    let base = vec2<i32>(floor(f));
+    let t = f - floor(f);
+    let x0 = u32(max(base.x, 0));
+    let y0 = u32(max(base.y, 0));
+    let x1 = u32(max(base.x + 1, 0));
+    let y1 = u32(max(base.y + 1, 0));
+    let coarse = mix(
+        mix(at(level.src, x0, y0).x, at(level.src, x1, y0).x, t.x),
+        mix(at(level.src, x0, y1).x, at(level.src, x1, y1).x, t.x),
+        t.y,
+    );
+    return c.y * c.x + (1.0 - c.y) * coarse;
+}
+
+@compute @workgroup_size(8, 8)
+fn push(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= level.dst.y || id.y >= level.dst.z) {
+        return;
+    }
+    vbuf[level.dst.x + id.y * level.dst.y + id.x] = vec2<f32>(pushed(id.x, id.y), 1.0);
+}
+
+// The full-resolution level: filled, and written to the visibility layer.
+@compute @workgroup_size(8, 8)
+fn finish(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= level.dst.y || id.y >= level.dst.z) {
+        return;
+    }
+    textureStore(visibility_out, id.xy, vec4<f32>(pushed(id.x, id.y)));
+}

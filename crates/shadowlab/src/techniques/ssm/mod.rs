@@ -1,0 +1,541 @@
+//! `ssm`: soft shadow mapping by back-projection (G. Guennebaud, L. Barthe, M. Paulin, "High-Quality
+//! Adaptive Soft Shadow Mapping", Eurographics 2007, after their "Real-time Soft Shadow Mapping by
+//! Backprojection", EGSR 2006; NOTES-002). One hard map from the light's centre stands in for the
+//! scene; per pixel the occluders' contour in it is back-projected onto the emitter and the hidden
+//! area integrated exactly, so overlapping blockers at different depths come out right where PCSS's
+//! one average blocker depth cannot, at a bounded cost per pixel whatever the light's size:
+//!
+//! 1. **Hierarchical shadow map** (§3): a pyramid of (nearest, farthest) depths over the map
+//!    (`hsm.wgsl`, a compute reduction). The search kernel, from Eq. 1 with the map's nearest depth,
+//!    is tightened by the nearest depth inside it; its bounds classify pixels as lit or umbra
+//!    without looking further.
+//! 2. **Smooth contour detection** (§4.1): marching squares over the 2 × 2 sample blocks in the
+//!    kernel, the contour grown or shrunk by `t` (0 on the finest level, `t_coarse` = 1 on coarser
+//!    ones, which the min depth dilates).
+//! 3. **Radial area integration** (§4.2): each back-projected edge adds or removes the part of the
+//!    emitter beyond it, seen from the emitter's centre, whose visibility comes from the same
+//!    contour.
+//! 4. **Light-space LOD** (§5.1, `lod`): the level where the kernel is at most `t_k` texels wide,
+//!    blended with the next over a band `beta` of the continuous level λ (Eq. 3; the paper's
+//!    second weight corrected to (1 − (1 − d)/β)/2, NOTES-002 §3).
+//! 5. **Screen-space adaptive sampling** (§5.2, `adaptive`): penumbra pixels are computed on an
+//!    ordered-dither pattern of `pattern`² where the penumbra is wider than `s_min` pixels on
+//!    screen (Eqs. 4–6), always next to a depth or normal discontinuity, and the others filled by
+//!    pull-push (`fill.wgsl`). The modern mapping of NOTES-002 §5: classify → append list →
+//!    indirect dispatch → pull-push.
+//!
+//! Emitters (DESIGN.md §3): a rectangle in its own plane, a sphere light as its disk facing the
+//! pixel, the sun as its cone of directions in gnomonic projection (a disk of radius tan θ). The
+//! CPU reference of the rules, with their unit tests, is [`shadowlab_core::backprojection`].
+//!
+//! Known limits: one depth layer (occluders hidden behind others in the map are missed, as in the
+//! paper, §8); a point light's kernel stays on the cube face of the pixel, so penumbrae crossing a
+//! face seam lose the edges beyond it.
+
+use shadowlab_core::ParamSet;
+use shadowlab_core::params::ParamDef;
+
+use crate::context::{Shared, storage_entry, uniform_entry};
+use crate::frame::VisibilityLayer;
+use crate::light_map::LightMap;
+use crate::shadowmap::{CONSTANT_BIAS, FACES, NORMAL_OFFSET, SLOPE_BIAS, lookup_layout};
+use crate::technique::{FrameContext, Handover, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
+use crate::timing::PassKind;
+
+/// Pyramid levels the uniform has room for (maps up to 2^15 texels wide).
+const MAX_LEVELS: usize = 16;
+/// Views of one light (a cube's faces).
+const MAX_VIEWS: usize = 6;
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    id: "ssm",
+    summary: "soft shadow mapping by back-projection: the map's occluder contours integrated over the emitter",
+    source: "Guennebaud, Barthe, Paulin 2007 (NOTES-002)",
+    params: &[
+        // The paper's 1k² map (§7.1): the levels used are coarse anyway, and the pyramid is
+        // rebuilt whenever the map is.
+        ParamDef::int("map_size", 1024, 16, 8192, "shadow map resolution (texels per side)"),
+        FACES,
+        SLOPE_BIAS,
+        NORMAL_OFFSET,
+        CONSTANT_BIAS,
+        ParamDef::float("t", 0.0, -1.0, 1.0, "contour on the finest level: 0 sample borders, 1 occluder centres"),
+        ParamDef::float("t_coarse", 1.0, -1.0, 1.0, "contour on coarser levels (1 undoes the min depth's dilation)"),
+        ParamDef::bool("lod", true, "light-space LOD: the pyramid level where the kernel is at most t_k texels"),
+        ParamDef::float("t_k", 8.0, 1.0, 64.0, "widest kernel (texels of the level used) with lod"),
+        ParamDef::float("beta", 0.05, 0.0, 0.5, "band of the continuous level over which two levels blend"),
+        ParamDef::float("max_kernel", 256.0, 2.0, 4096.0, "widest kernel (texels) without lod; wider is clipped"),
+        ParamDef::int("iterations", 4, 1, 16, "kernel-tightening steps"),
+        ParamDef::bool("adaptive", true, "screen-space adaptive sampling with pull-push"),
+        ParamDef::float(
+            "s_min",
+            16.0,
+            1.0,
+            1.0e9,
+            "penumbra width on screen (pixels) where pixels start being skipped",
+        ),
+        ParamDef::choice("pattern", "4", &["2", "4", "8"], "width of the selection pattern"),
+    ],
+    light_types: super::ALL_LIGHTS,
+    create,
+    compose: None,
+};
+
+/// `Ssm` in `ssm.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct SsmUniform {
+    contour: [f32; 4],
+    adapt: [f32; 4],
+    limits: [f32; 4],
+    screen: [f32; 4],
+    levels: [[u32; 4]; MAX_LEVELS],
+    inv: [[[f32; 4]; 4]; MAX_VIEWS],
+}
+
+/// `Reduce` in `hsm.wgsl` and `Level` in `fill.wgsl`: the level written and the level read.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct LevelUniform {
+    dst: [u32; 4],
+    src: [u32; 4],
+}
+
+/// A camera depth step of more than 5 % to a neighbour, or a normal turning by more than about
+/// 25°, is a discontinuity that pull-push must not blur across (the paper's thresholded Sobel
+/// filter does not give its thresholds).
+const DEPTH_STEP: f32 = 0.05;
+const NORMAL_COS: f32 = 0.9;
+
+/// The depth pyramid over a light's maps: per view, levels 1… (level 0 is the map itself).
+struct Pyramid {
+    buffer: wgpu::Buffer,
+    size: u32,
+    views: u32,
+    /// (offset in a view's block, side) of levels 1…; index 0 unused.
+    levels: Vec<(u32, u32)>,
+    per_view: u32,
+    /// One reduction per level ≥ 1, with its bind group.
+    reduce: Vec<wgpu::BindGroup>,
+    /// The maps' (generation, shown version) it was built from.
+    built: Option<(u32, u64)>,
+}
+
+/// Buffers sized by the output: the v-buffer and its pull-push pyramid, the pixel list, the
+/// discontinuities.
+struct Screen {
+    width: u32,
+    height: u32,
+    /// Offset and size of each pull-push level (0: the output).
+    levels: Vec<(u32, u32, u32)>,
+    own: wgpu::BindGroup,
+    work: wgpu::Buffer,
+    args: wgpu::Buffer,
+    /// Group 3 per pull (k → k + 1), per push (k + 1 → k, k ≥ 1), the last push, and the
+    /// write without pull-push.
+    pulls: Vec<wgpu::BindGroup>,
+    pushes: Vec<wgpu::BindGroup>,
+    finish: wgpu::BindGroup,
+    finish_plain: wgpu::BindGroup,
+    bytes: u64,
+}
+
+struct Pipelines {
+    reduce: wgpu::ComputePipeline,
+    edges: wgpu::ComputePipeline,
+    classify: wgpu::ComputePipeline,
+    args: wgpu::ComputePipeline,
+    visibility: wgpu::ComputePipeline,
+    pull: wgpu::ComputePipeline,
+    push: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
+}
+
+struct Ssm {
+    params: ParamSet,
+    map: Option<LightMap>,
+    pipelines: Pipelines,
+    uniform: wgpu::Buffer,
+    values: SsmUniform,
+    pyramid: Option<Pyramid>,
+    screen: Option<Screen>,
+    triangles: u64,
+    /// Pyramid levels reduced by the last frame.
+    reduced: u32,
+}
+
+fn own_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("ssm", || {
+        let c = wgpu::ShaderStages::COMPUTE;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("ssm"),
+            entries: &[
+                uniform_entry(0, c),
+                storage_entry(1, c, true),
+                storage_entry(2, c, false),
+                storage_entry(3, c, false),
+                storage_entry(4, c, false),
+                storage_entry(5, c, false),
+            ],
+        })
+    })
+}
+
+/// Group 2 of `hsm.wgsl` and group 3 of `fill.wgsl`: a level uniform and one writable buffer.
+fn level_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("ssm level", || {
+        let c = wgpu::ShaderStages::COMPUTE;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("ssm level"),
+            entries: &[uniform_entry(0, c), storage_entry(1, c, false)],
+        })
+    })
+}
+
+fn pipelines(shared: &Shared) -> Pipelines {
+    let (lookup, own, level) = (lookup_layout(shared), own_layout(shared), level_layout(shared));
+    let ssm = include_str!("ssm.wgsl");
+    let fill = include_str!("fill.wgsl");
+    let main = |entry: &str| shared.resolve_pipeline(&format!("ssm {entry}"), ssm, entry, &[&lookup, &own], &[]);
+    let filled =
+        |entry: &str| shared.resolve_pipeline(&format!("ssm {entry}"), fill, entry, &[&lookup, &own, &level], &[]);
+    Pipelines {
+        reduce: shared.resolve_pipeline("ssm reduce", include_str!("hsm.wgsl"), "main", &[&lookup, &level], &[]),
+        edges: main("edges"),
+        classify: main("classify"),
+        visibility: main("visibility"),
+        args: filled("dispatch_args"),
+        pull: filled("pull"),
+        push: filled("push"),
+        finish: filled("finish"),
+    }
+}
+
+fn create(
+    shared: &Shared,
+    params: &ParamSet,
+    _light: &shadowlab_core::Light,
+) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+    let device = &shared.gpu.device;
+    let pattern: u32 = params.choice("pattern").parse().unwrap_or(4);
+    let flag = |b: bool| if b { 1.0 } else { 0.0 };
+    let values = SsmUniform {
+        contour: [
+            params.float("t") as f32,
+            params.float("t_coarse") as f32,
+            params.float("t_k") as f32,
+            params.float("beta") as f32,
+        ],
+        adapt: [flag(params.bool("lod")), flag(params.bool("adaptive")), params.float("s_min") as f32, pattern as f32],
+        limits: [params.int("iterations") as f32, params.float("max_kernel") as f32, 0.0, 0.0],
+        // Discontinuities force exact pixels as far as the pattern spaces them.
+        screen: [DEPTH_STEP, NORMAL_COS, pattern as f32, 0.0],
+        levels: [[0; 4]; MAX_LEVELS],
+        inv: [[[0.0; 4]; 4]; MAX_VIEWS],
+    };
+    let uniform = crate::util::uniform_buffer(device, "ssm", bytemuck::bytes_of(&values));
+    Ok(Box::new(Ssm {
+        params: params.clone(),
+        map: None,
+        pipelines: pipelines(shared),
+        uniform,
+        values,
+        pyramid: None,
+        screen: None,
+        triangles: 0,
+        reduced: 0,
+    }))
+}
+
+fn level_group(shared: &Shared, label: &str, value: LevelUniform, target: &wgpu::Buffer) -> wgpu::BindGroup {
+    let device = &shared.gpu.device;
+    let buffer = crate::util::uniform_buffer(device, label, bytemuck::bytes_of(&value));
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &level_layout(shared),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: target.as_entire_binding() },
+        ],
+    })
+}
+
+fn storage(device: &wgpu::Device, label: &str, bytes: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(16),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+        mapped_at_creation: false,
+    })
+}
+
+impl Pyramid {
+    fn new(shared: &Shared, size: u32, views: u32) -> Self {
+        let mut levels = vec![(0, size)];
+        let mut offset = 0;
+        let mut side = size;
+        while side > 1 {
+            side = side.div_ceil(2);
+            levels.push((offset, side));
+            offset += side * side;
+        }
+        let per_view = offset.max(1);
+        let buffer =
+            storage(&shared.gpu.device, "ssm hsm", u64::from(per_view * views) * 8, wgpu::BufferUsages::empty());
+        let reduce = (1..levels.len())
+            .map(|l| {
+                let (src_offset, src_side) = levels[l - 1];
+                let (dst_offset, dst_side) = levels[l];
+                let value = LevelUniform {
+                    dst: [l as u32, dst_offset, dst_side, per_view],
+                    src: [l as u32 - 1, src_offset, src_side, 0],
+                };
+                level_group(shared, "ssm reduce", value, &buffer)
+            })
+            .collect();
+        Self { buffer, size, views, levels, per_view, reduce, built: None }
+    }
+
+    fn top(&self) -> u32 {
+        self.levels.len() as u32 - 1
+    }
+}
+
+impl Screen {
+    fn new(shared: &Shared, uniform: &wgpu::Buffer, hsm: &wgpu::Buffer, width: u32, height: u32) -> Self {
+        let device = &shared.gpu.device;
+        let mut levels = vec![(0, width, height)];
+        let (mut offset, mut w, mut h) = (width * height, width, height);
+        while w > 1 || h > 1 {
+            (w, h) = (w.div_ceil(2), h.div_ceil(2));
+            levels.push((offset, w, h));
+            offset += w * h;
+        }
+        let pixels = u64::from(width) * u64::from(height);
+        let vbuf = storage(device, "ssm v-buffer", u64::from(offset) * 8, wgpu::BufferUsages::empty());
+        let list = storage(device, "ssm list", pixels * 4, wgpu::BufferUsages::empty());
+        let flags = storage(device, "ssm discontinuities", pixels * 4, wgpu::BufferUsages::empty());
+        let work = storage(device, "ssm work", 16, wgpu::BufferUsages::empty());
+        let args = storage(device, "ssm dispatch", 16, wgpu::BufferUsages::INDIRECT);
+        let own = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("ssm"),
+            layout: &own_layout(shared),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: hsm.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: vbuf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: work.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: list.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: flags.as_entire_binding() },
+            ],
+        });
+        let at = |(o, w, h): (u32, u32, u32)| [o, w, h, 0];
+        let pair = |dst: usize, src: Option<usize>| LevelUniform {
+            dst: at(levels[dst]),
+            src: src.map_or([0; 4], |s| at(levels[s])),
+        };
+        let pulls =
+            (0..levels.len() - 1).map(|k| level_group(shared, "ssm pull", pair(k + 1, Some(k)), &args)).collect();
+        let pushes =
+            (1..levels.len() - 1).rev().map(|k| level_group(shared, "ssm push", pair(k, Some(k + 1)), &args)).collect();
+        let coarser = (levels.len() > 1).then_some(1);
+        let finish = level_group(shared, "ssm finish", pair(0, coarser), &args);
+        let finish_plain = level_group(shared, "ssm finish", pair(0, None), &args);
+        let bytes = vbuf.size() + list.size() + flags.size() + work.size() + args.size();
+        Self { width, height, levels, own, work, args, pulls, pushes, finish, finish_plain, bytes }
+    }
+}
+
+impl Ssm {
+    /// Fits the pyramid to the maps and the screen buffers to the output, and writes the uniform
+    /// (levels, the shown views' inverses). Returns false when there is nothing to look up yet.
+    fn fit(&mut self, ctx: &FrameContext<'_>) -> bool {
+        let Some(maps) = self.map.as_ref().and_then(|m| m.maps.as_ref()) else { return false };
+        let (size, views) = (maps.size(), maps.len());
+        if self.pyramid.as_ref().is_none_or(|p| p.size != size || p.views != views) {
+            self.pyramid = Some(Pyramid::new(ctx.shared, size, views));
+            self.screen = None;
+        }
+        let pyramid = self.pyramid.as_ref().expect("made above");
+        let (width, height) = (ctx.surface.width, ctx.surface.height);
+        if self.screen.as_ref().is_none_or(|s| s.width != width || s.height != height) {
+            self.screen = Some(Screen::new(ctx.shared, &self.uniform, &pyramid.buffer, width, height));
+        }
+        let v = &mut self.values;
+        v.limits[2] = pyramid.top() as f32;
+        v.limits[3] = pyramid.per_view as f32;
+        for (l, &(offset, side)) in pyramid.levels.iter().enumerate().take(MAX_LEVELS) {
+            v.levels[l] = [offset, side, 0, 0];
+        }
+        for i in 0..views.min(MAX_VIEWS as u32) {
+            if let Some(view) = maps.shown_view(i) {
+                // In f64: the inverse of a projection with a far/near ratio of thousands.
+                v.inv[i as usize] = view.view_projection.as_dmat4().inverse().as_mat4().to_cols_array_2d();
+            }
+        }
+        ctx.gpu.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.values));
+        maps.shown()
+    }
+
+    /// Rebuilds the pyramid when the maps it was built from changed.
+    fn reduce(&mut self, ctx: &mut FrameContext<'_>, lookup: &wgpu::BindGroup, group0: &wgpu::BindGroup) {
+        self.reduced = 0;
+        let Some(maps) = self.map.as_ref().and_then(|m| m.maps.as_ref()) else { return };
+        let Some(pyramid) = self.pyramid.as_mut() else { return };
+        let version = (maps.generation(), maps.shown_version());
+        if pyramid.built == Some(version) {
+            return;
+        }
+        let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Shadow);
+        let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("ssm pyramid"),
+            timestamp_writes: timestamps,
+        });
+        pass.set_pipeline(&self.pipelines.reduce);
+        pass.set_bind_group(0, Some(group0), &[]);
+        pass.set_bind_group(1, Some(lookup), &[]);
+        for (l, group) in pyramid.reduce.iter().enumerate() {
+            let side = pyramid.levels[l + 1].1;
+            pass.set_bind_group(2, Some(group), &[]);
+            pass.dispatch_workgroups(side.div_ceil(8), side.div_ceil(8), pyramid.views);
+        }
+        self.reduced = pyramid.reduce.len() as u32;
+        pyramid.built = Some(version);
+    }
+}
+
+impl ShadowTechnique for Ssm {
+    fn id(&self) -> &'static str {
+        INFO.id
+    }
+
+    fn params(&self) -> &ParamSet {
+        &self.params
+    }
+
+    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        let params = &self.params;
+        let map = self.map.get_or_insert_with(|| LightMap::new(ctx.shared, params, false));
+        map.update(ctx)?;
+        self.triangles = ctx.gpu_scene.triangles;
+        Ok(())
+    }
+
+    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        if !self.fit(ctx) {
+            return;
+        }
+        let Some(lookup) = self.map.as_ref().and_then(LightMap::group).cloned() else { return };
+        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        self.reduce(ctx, &lookup, &group0);
+        let Some(screen) = self.screen.as_ref() else { return };
+        let p = &self.pipelines;
+        let adaptive = self.values.adapt[1] > 0.5;
+        let (gx, gy) = (ctx.surface.width.div_ceil(8), ctx.surface.height.div_ceil(8));
+        ctx.encoder.clear_buffer(&screen.work, 0, None);
+        {
+            // Classify every pixel; list the penumbra pixels to compute.
+            let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);
+            let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("ssm classify"),
+                timestamp_writes: timestamps,
+            });
+            pass.set_bind_group(0, Some(&group0), &[]);
+            pass.set_bind_group(1, Some(&lookup), &[]);
+            pass.set_bind_group(2, Some(&screen.own), &[]);
+            if adaptive {
+                pass.set_pipeline(&p.edges);
+                pass.dispatch_workgroups(gx, gy, 1);
+            }
+            pass.set_pipeline(&p.classify);
+            pass.dispatch_workgroups(gx, gy, 1);
+            pass.set_bind_group(3, Some(&screen.finish), &[]);
+            pass.set_pipeline(&p.args);
+            pass.dispatch_workgroups(1, 1, 1);
+        }
+        {
+            // The listed pixels' visibility: the back-projection proper.
+            let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);
+            let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("ssm visibility"),
+                timestamp_writes: timestamps,
+            });
+            pass.set_pipeline(&p.visibility);
+            pass.set_bind_group(0, Some(&group0), &[]);
+            pass.set_bind_group(1, Some(&lookup), &[]);
+            pass.set_bind_group(2, Some(&screen.own), &[]);
+            if std::env::var("SSM_SKIP").is_err() {
+                pass.dispatch_workgroups_indirect(&screen.args, 0);
+            }
+        }
+        let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);
+        let mut pass = ctx
+            .encoder
+            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("ssm fill"), timestamp_writes: timestamps });
+        pass.set_bind_group(0, Some(&group0), &[]);
+        pass.set_bind_group(1, Some(&lookup), &[]);
+        pass.set_bind_group(2, Some(&screen.own), &[]);
+        let dispatch = |pass: &mut wgpu::ComputePass<'_>, (_, w, h): (u32, u32, u32)| {
+            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        };
+        if adaptive {
+            pass.set_pipeline(&p.pull);
+            for (k, group) in screen.pulls.iter().enumerate() {
+                pass.set_bind_group(3, Some(group), &[]);
+                dispatch(&mut pass, screen.levels[k + 1]);
+            }
+            pass.set_pipeline(&p.push);
+            let count = screen.pushes.len();
+            for (i, group) in screen.pushes.iter().enumerate() {
+                pass.set_bind_group(3, Some(group), &[]);
+                dispatch(&mut pass, screen.levels[count - i]);
+            }
+            pass.set_bind_group(3, Some(&screen.finish), &[]);
+        } else {
+            pass.set_bind_group(3, Some(&screen.finish_plain), &[]);
+        }
+        pass.set_pipeline(&p.finish);
+        dispatch(&mut pass, screen.levels[0]);
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        let Some(m) = &self.map else { return TechniqueStats::default() };
+        let (passes, draws, triangles) = m.counts(self.triangles);
+        let pyramid = self.pyramid.as_ref().map_or(0, |p| p.buffer.size());
+        let screen = self.screen.as_ref().map_or(0, |s| s.bytes);
+        TechniqueStats {
+            memory_bytes: m.bytes() + pyramid + screen + self.uniform.size(),
+            passes: passes + u32::from(self.reduced > 0) + 3,
+            draws,
+            triangles,
+            extra: vec![("ssm_pyramid_levels_reduced".into(), f64::from(self.reduced))],
+        }
+    }
+
+    fn shown(&self) -> bool {
+        self.map.as_ref().is_some_and(LightMap::shown)
+    }
+
+    fn current(&self) -> bool {
+        self.map.as_ref().is_some_and(LightMap::current)
+    }
+
+    fn hand_over(&mut self) -> Option<Handover> {
+        self.map.take().map(|m| Handover::Map(Box::new(m)))
+    }
+
+    /// Keeps a map-lookup technique's map of the same size (a slider moved, `pcss` → `ssm`).
+    fn take_over(&mut self, shared: &Shared, handover: Handover) -> Result<(), Handover> {
+        match handover {
+            Handover::Map(mut map) if self.map.is_none() && map.fits(&self.params) => {
+                map.set_params(shared, &self.params, false);
+                self.map = Some(*map);
+                Ok(())
+            }
+            other => Err(other),
+        }
+    }
+}
+
+// The uniform's layout is WGSL's: four vec4s, 16 level entries, 6 matrices.
+const _: () = assert!(std::mem::size_of::<SsmUniform>() == 4 * 16 + MAX_LEVELS * 16 + MAX_VIEWS * 64);

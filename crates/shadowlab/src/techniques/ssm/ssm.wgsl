@@ -1,0 +1,897 @@
+// `ssm`: soft shadow mapping by back-projection (Guennebaud, Barthe, Paulin 2007, "High-Quality
+// Adaptive Soft Shadow Mapping"; NOTES-002). Per pixel: the contour of the map's occluding samples
+// inside the search kernel (§4.1), back-projected from the receiver onto the emitter and integrated
+// radially from its centre (§4.2), at a level of the min/max depth pyramid chosen from the kernel's
+// size and blended with the next (§5.1). Penumbra pixels are computed on a sparse pattern where the
+// penumbra is wide on screen and filled in by pull-push (§5.2). The CPU reference of the same
+// rules, with their tests, is shadowlab_core::backprojection.
+//
+// Entry points, in the order the technique runs them: `edges` (the discontinuity buffer),
+// `classify` (lit, umbra or penumbra; penumbra pixels to compute are appended to a list), `args`
+// (the indirect dispatch of the list), `visibility` (one invocation per listed pixel), then
+// pullpush.wgsl fills the gaps and writes the visibility layer.
+
+// #include "resolve.wgsl"
+// #include "maplookup.wgsl"
+
+struct Ssm {
+    // x: contour parameter t at the finest level; y: t at coarser levels; z: t_k, the widest kernel
+    // (texels of the level used); w: β, the band of λ over which two levels are blended.
+    contour: vec4<f32>,
+    // x: 1 with light-space LOD; y: 1 with screen-space adaptive sampling; z: s_min (pixels);
+    // w: width h of the selection pattern.
+    adapt: vec4<f32>,
+    // x: kernel-tightening iterations; y: widest kernel without LOD (texels); z: top level of the
+    // pyramid; w: texels of one view's pyramid (levels ≥ 1).
+    limits: vec4<f32>,
+    // x: relative depth step and y: cosine of the normal angle that make a discontinuity; z: how far
+    // (pixels) discontinuities force exact computation.
+    screen: vec4<f32>,
+    // Per pyramid level ≥ 1: x: offset in a view's block, y: side (texels).
+    levels: array<vec4<u32>, 16>,
+    // Inverse view-projection of each view the lookups read.
+    inv: array<mat4x4<f32>, 6>,
+};
+
+struct Work {
+    // Penumbra pixels appended by `classify`.
+    count: atomic<u32>,
+};
+
+@group(2) @binding(0) var<uniform> ssm: Ssm;
+// Per view, levels ≥ 1 of the hierarchical shadow map: (nearest, farthest) stored depth (reversed
+// Z: larger is nearer the light).
+@group(2) @binding(1) var<storage, read> hsm: array<vec2<f32>>;
+// (visibility, weight) per pixel, then the coarser levels of pull-push.
+@group(2) @binding(2) var<storage, read_write> vbuf: array<vec2<f32>>;
+@group(2) @binding(3) var<storage, read_write> work: Work;
+@group(2) @binding(4) var<storage, read_write> list: array<u32>;
+// 1 where the camera's depth or normal is discontinuous.
+@group(2) @binding(5) var<storage, read_write> flags: array<u32>;
+
+const LIT: u32 = 0u;
+const UMBRA: u32 = 1u;
+const PENUMBRA: u32 = 2u;
+
+// ---- the hierarchical shadow map (§3) ----
+
+fn level_side(level: u32) -> i32 {
+    if (level == 0u) {
+        return i32(map_params.bias.z);
+    }
+    return i32(ssm.levels[level].y);
+}
+
+// (nearest, farthest) stored depth of texel t of `level` in view `view`; off the map nothing occludes.
+fn hsm_texel(view: u32, level: u32, t: vec2<i32>) -> vec2<f32> {
+    let side = level_side(level);
+    if (any(t < vec2<i32>(0)) || any(t >= vec2<i32>(side))) {
+        return vec2<f32>(0.0);
+    }
+    if (level == 0u) {
+        let d = stored_depth(t, view);
+        return vec2<f32>(d, d);
+    }
+    let block = view * u32(ssm.limits.w) + ssm.levels[level].x;
+    return hsm[block + u32(t.y) * u32(side) + u32(t.x)];
+}
+
+struct Bounds {
+    nearest: f32,
+    farthest: f32,
+    // The mean stored depth of the texels read that occlude the receiver (0: none).
+    occluder: f32,
+};
+
+// Depth bounds of the map over the square [lo, hi] (level-0 texels), from the coarsest level
+// whose texels are at least as wide as the square (at most 2 × 2 texels read). Texels nearer than
+// `occluding` count towards the occluder depth.
+fn hsm_bounds(view: u32, lo: vec2<f32>, hi: vec2<f32>, occluding: f32) -> Bounds {
+    let top = u32(ssm.limits.z);
+    let width = max(max(hi.x - lo.x, hi.y - lo.y), 1.0);
+    let level = min(u32(ceil(log2(width))), top);
+    let scale = f32(1u << level);
+    let a = vec2<i32>(floor(lo / scale));
+    let b = vec2<i32>(floor(hi / scale));
+    var out = Bounds(0.0, 1.0, 0.0);
+    var sum = 0.0;
+    var n = 0.0;
+    for (var y = a.y; y <= b.y; y = y + 1) {
+        for (var x = a.x; x <= b.x; x = x + 1) {
+            let d = hsm_texel(view, level, vec2<i32>(x, y));
+            out.nearest = max(out.nearest, d.x);
+            out.farthest = min(out.farthest, d.y);
+            if (d.x > occluding) {
+                sum = sum + d.x;
+                n = n + 1.0;
+            }
+        }
+    }
+    if (n > 0.0) {
+        out.occluder = sum / n;
+    }
+    return out;
+}
+
+// ---- the emitter, seen from the receiver ----
+
+struct Pixel {
+    p: vec3<f32>,
+    n: vec3<f32>,
+    view: u32,
+    // The receiver's position on the map (level-0 texels) and stored-depth scale depth.
+    st: vec2<f32>,
+    z: f32,
+    // Receiver-plane depth gradient per texel (Isidoro 2006), and |g|₁.
+    g: vec2<f32>,
+    g1: f32,
+    // Distance of the receiver along the view's axis.
+    zd: f32,
+    // Kernel half-width (level-0 texels) and the continuous level λ (§5.1).
+    half: f32,
+    lambda: f32,
+    // Back-projection onto the emitter's normalised domain: coords(q) = base + k / (m·(q − p)) ×
+    // (T·(q − p), B·(q − p)).
+    base: vec2<f32>,
+    k: f32,
+    m: vec3<f32>,
+    t: vec3<f32>,
+    b: vec3<f32>,
+    // 1 for a disk (sphere lights, the sun), 0 for a square (rectangles).
+    disk: bool,
+    // +1 when the map's texel axes keep their orientation on the emitter, −1 when mirrored.
+    flip: f32,
+    // A zero-size emitter: the contour's hard shadow.
+    hard: bool,
+    // The view's inverse view-projection.
+    inv: mat4x4<f32>,
+};
+
+fn basis_u(m: vec3<f32>) -> vec3<f32> {
+    var u = cross(m, vec3<f32>(0.0, 1.0, 0.0));
+    if (dot(u, u) < 1.0e-6) {
+        u = cross(m, vec3<f32>(1.0, 0.0, 0.0));
+    }
+    return normalize(u);
+}
+
+// The emitter's extent as the kernel bound sees it: a radius for local lights (a rectangle's half
+// diagonal), the tangent of the angular radius for the sun.
+fn emitter_radius() -> f32 {
+    let kind = light_kind(light);
+    if (kind == LIGHT_RECT) {
+        return 0.5 * length(light.cone.zw);
+    }
+    if (kind == LIGHT_DIRECTIONAL) {
+        return tan(light.color.w);
+    }
+    return light.color.w;
+}
+
+// Sets up the back-projection of receiver p onto the emitter (DESIGN.md §3's emitter measures):
+// a rectangle in its own plane, a sphere light as its disk facing p, the sun as its cone of
+// directions in gnomonic projection (a disk of radius tan θ).
+fn set_emitter(px: ptr<function, Pixel>) {
+    let kind = light_kind(light);
+    let p = (*px).p;
+    (*px).hard = emitter_radius() <= 0.0;
+    (*px).base = vec2<f32>(0.0);
+    if (kind == LIGHT_RECT) {
+        let c = light.position.xyz;
+        let half = max(0.5 * light.cone.zw, vec2<f32>(1.0e-9));
+        let tangent = normalize(light.tangent.xyz);
+        let bitangent = normalize(cross(light.direction.xyz, tangent));
+        (*px).m = -light.direction.xyz;
+        (*px).t = tangent / half.x;
+        (*px).b = bitangent / half.y;
+        (*px).k = dot(c - p, (*px).m);
+        (*px).base = vec2<f32>(dot(p - c, (*px).t), dot(p - c, (*px).b));
+        (*px).disk = false;
+        (*px).hard = (*px).hard || min(light.cone.z, light.cone.w) <= 0.0;
+        return;
+    }
+    var r = max(emitter_radius(), 1.0e-9);
+    if (kind == LIGHT_DIRECTIONAL) {
+        (*px).m = -light.direction.xyz;
+        (*px).k = 1.0;
+    } else {
+        let d = light.position.xyz - p;
+        (*px).m = normalize(d);
+        (*px).k = length(d);
+    }
+    let u = basis_u((*px).m);
+    (*px).t = u / r;
+    (*px).b = cross((*px).m, u) / r;
+    (*px).disk = true;
+}
+
+fn emitter_coords(px: Pixel, q: vec3<f32>) -> vec2<f32> {
+    let d = q - px.p;
+    let den = max(dot(d, px.m), 1.0e-9 * length(d) + 1.0e-30);
+    return px.base + (px.k / den) * vec2<f32>(dot(d, px.t), dot(d, px.b));
+}
+
+// The world point stored at level-0 texel position st with stored depth `depth`.
+fn unproject(px: Pixel, st: vec2<f32>, depth: f32) -> vec3<f32> {
+    let uv = st / map_params.bias.z;
+    let h = px.inv * vec4<f32>(2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y, depth, 1.0);
+    return h.xyz / h.w;
+}
+
+// ---- the normalised emitter domain: [−1, 1]² or the unit disk ----
+
+fn cross2(a: vec2<f32>, b: vec2<f32>) -> f32 {
+    return a.x * b.y - a.y * b.x;
+}
+
+// The parameter range (t0, t1) of segment a + s(b − a) inside the domain; empty when t0 ≥ t1.
+fn clip_range(disk: bool, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let d = b - a;
+    if (disk) {
+        let qa = dot(d, d);
+        let qb = dot(a, d);
+        let qc = dot(a, a) - 1.0;
+        let disc = qb * qb - qa * qc;
+        if (qa <= 0.0 || disc <= 0.0) {
+            return vec2<f32>(1.0, 0.0);
+        }
+        let r = sqrt(disc);
+        return vec2<f32>(max((-qb - r) / qa, 0.0), min((-qb + r) / qa, 1.0));
+    }
+    // Liang–Barsky against the four sides.
+    var t0 = 0.0;
+    var t1 = 1.0;
+    let ps = array<f32, 4>(-d.x, d.x, -d.y, d.y);
+    let qs = array<f32, 4>(a.x + 1.0, 1.0 - a.x, a.y + 1.0, 1.0 - a.y);
+    for (var i = 0; i < 4; i = i + 1) {
+        let p = ps[i];
+        let q = qs[i];
+        if (p == 0.0) {
+            if (q < 0.0) {
+                return vec2<f32>(1.0, 0.0);
+            }
+        } else {
+            let r = q / p;
+            if (p < 0.0) {
+                t0 = max(t0, r);
+            } else {
+                t1 = min(t1, r);
+            }
+        }
+    }
+    return vec2<f32>(t0, t1);
+}
+
+// The square's boundary point in direction u.
+fn square_rim(u: vec2<f32>) -> vec2<f32> {
+    return u / max(max(abs(u.x), abs(u.y)), 1.0e-30);
+}
+
+// Area of the domain inside the wedge from the centre between the directions of a and b (< π).
+fn sector_area(disk: bool, a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
+    var a = a_in;
+    var b = b_in;
+    if (cross2(a, b) < 0.0) {
+        a = b_in;
+        b = a_in;
+    }
+    if (disk) {
+        return 0.5 * atan2(abs(cross2(a, b)), dot(a, b));
+    }
+    // A fan over the rim: a's rim point, the corners inside the wedge in turn, b's rim point.
+    let corners = array<vec2<f32>, 4>(vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0), vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0));
+    var first = -1;
+    var second = -1;
+    for (var i = 0; i < 4; i = i + 1) {
+        let c = corners[i];
+        if (cross2(a, c) > 0.0 && cross2(c, b) > 0.0) {
+            if (first < 0) {
+                first = i;
+            } else {
+                second = i;
+            }
+        }
+    }
+    // Corners 3 and 0 are in turn the other way round.
+    if (first == 0 && second == 3) {
+        first = 3;
+        second = 0;
+    }
+    var prev = square_rim(a);
+    var area = 0.0;
+    if (first >= 0) {
+        area = area + cross2(prev, corners[first]);
+        prev = corners[first];
+    }
+    if (second >= 0) {
+        area = area + cross2(prev, corners[second]);
+        prev = corners[second];
+    }
+    area = area + cross2(prev, square_rim(b));
+    return 0.5 * area;
+}
+
+fn domain_area(disk: bool) -> f32 {
+    return select(4.0, 3.14159265, disk);
+}
+
+// The signed part of the emitter an edge a → b (occluder on its left) hides or reveals beyond
+// itself, seen from the centre (§4.2, as penumbra wedges integrate; NOTES-002 "self-consistent
+// formulation"): + where the occluder ends there (the edge turns counter-clockwise about the
+// centre), − where it begins.
+fn edge_area(disk: bool, a: vec2<f32>, b: vec2<f32>) -> f32 {
+    let r = clip_range(disk, a, b);
+    if (r.y - r.x <= 1.0e-7) {
+        return 0.0;
+    }
+    let a2 = a + r.x * (b - a);
+    let b2 = a + r.y * (b - a);
+    let c = cross2(a2, b2);
+    if (abs(c) < 1.0e-12) {
+        return 0.0;
+    }
+    let beyond = max(sector_area(disk, a2, b2) - 0.5 * abs(c), 0.0);
+    return sign(c) * beyond;
+}
+
+// ---- smooth contour detection (§4.1) ----
+
+// Sample i's centre in a 2 × 2 block's frame: 0 (−½, −½), 1 (½, −½), 2 (½, ½), 3 (−½, ½).
+fn sample_centre(i: u32) -> vec2<f32> {
+    let k = i & 3u;
+    return vec2<f32>(select(-0.5, 0.5, k == 1u || k == 2u), select(-0.5, 0.5, k >= 2u));
+}
+
+// Where the contour crosses the segment from occluder sample o to background sample b: its border
+// for t = 0, o's centre for t = 1, b's for t = −1.
+fn crossing(o: u32, b: u32, t: f32) -> vec2<f32> {
+    let co = sample_centre(o);
+    return co + 0.5 * (1.0 - t) * (sample_centre(b) - co);
+}
+
+struct BlockEdges {
+    a0: vec2<f32>,
+    b0: vec2<f32>,
+    a1: vec2<f32>,
+    b1: vec2<f32>,
+    // The samples whose depths the endpoints take.
+    ha0: u32,
+    hb0: u32,
+    ha1: u32,
+    hb1: u32,
+    count: u32,
+};
+
+// The marching-squares rule of a block with occluder mask `mask` (bit i: sample i occludes): up to
+// two edges, the occluder on their left. shadowlab_core::backprojection::block_edges is the same table.
+fn block_edges(mask: u32, t: f32) -> BlockEdges {
+    var e: BlockEdges;
+    e.count = 0u;
+    if (mask == 0u || mask == 15u) {
+        return e;
+    }
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        // Bit k of r: sample i + k occludes.
+        let r = ((mask >> i) | (mask << (4u - i))) & 15u;
+        let i1 = (i + 1u) & 3u;
+        let i2 = (i + 2u) & 3u;
+        let i3 = (i + 3u) & 3u;
+        if (r == 1u || r == 5u) {
+            // One occluder at i (and its diagonal twin for 0x5, 0xA).
+            e.a0 = crossing(i, i1, t);
+            e.b0 = crossing(i, i3, t);
+            e.ha0 = i;
+            e.hb0 = i;
+            e.count = 1u;
+            if (r == 5u) {
+                e.a1 = -e.a0;
+                e.b1 = -e.b0;
+                e.ha1 = i2;
+                e.hb1 = i2;
+                e.count = 2u;
+            }
+            break;
+        }
+        if (r == 3u) {
+            // Occluders i and i + 1.
+            e.a0 = crossing(i1, i2, t);
+            e.b0 = crossing(i, i3, t);
+            e.ha0 = i1;
+            e.hb0 = i;
+            e.count = 1u;
+            break;
+        }
+        if (r == 14u) {
+            // Background at i only.
+            e.a0 = crossing(i3, i, t);
+            e.b0 = crossing(i1, i, t);
+            e.ha0 = i3;
+            e.hb0 = i1;
+            e.count = 1u;
+            break;
+        }
+    }
+    // A single occluder's corner (and a diagonal pair's) collapses to a point at t = 1. The
+    // three-occluder edge at t = −1 is a point on the map too, but its ends hold two depths: it
+    // stays, a segment on the emitter.
+    if (length(e.b0 - e.a0) < 1.0e-6 && e.ha0 == e.hb0) {
+        e.count = 0u;
+    }
+    return e;
+}
+
+fn left_of(a: vec2<f32>, b: vec2<f32>, x: vec2<f32>) -> bool {
+    return cross2(b - a, x - a) > 0.0;
+}
+
+// Whether point x of a block (its frame) is inside the occluders' contour: the hard test of the
+// emitter's centre that matches the contour (§4.2, Fig. 5).
+fn centre_inside(mask: u32, t: f32, x: vec2<f32>) -> bool {
+    let e = block_edges(mask, t);
+    var extended = false;
+    var left = false;
+    if (e.count >= 1u && length(e.b0 - e.a0) >= 1.0e-6) {
+        extended = true;
+        left = left_of(e.a0, e.b0, x);
+    }
+    if (e.count == 2u && length(e.b1 - e.a1) >= 1.0e-6) {
+        extended = true;
+        left = left || left_of(e.a1, e.b1, x);
+    }
+    // No edge with length in the block: inside when most of its samples occlude.
+    return select(countOneBits(mask) > 2u, left, extended);
+}
+
+// ---- visibility at one level ----
+
+// What a pass over one level reads, looked up once: its scale, side, where its texels are.
+struct Level {
+    level: u32,
+    scale: f32,
+    side: i32,
+    // The view's texture layer (level 0) or its block's offset in the pyramid (coarser levels).
+    layer: i32,
+    base: u32,
+    // The receiver plane's rise over half a texel of the level: a coarse texel holds the nearest
+    // depth of the finer texels it covers.
+    slack: f32,
+};
+
+fn level_of(px: Pixel, level: u32) -> Level {
+    var l: Level;
+    l.level = level;
+    l.scale = f32(1u << level);
+    l.side = level_side(level);
+    l.layer = view_layer(px.view);
+    l.base = px.view * u32(ssm.limits.w) + ssm.levels[level].x;
+    l.slack = px.g1 * 0.5 * (l.scale - 1.0);
+    return l;
+}
+
+// #ifdef HARDWARE_COMPARE
+fn map_texel(t: vec2<i32>, layer: i32) -> f32 {
+    return textureLoad(shadow_maps, t, layer, 0);
+}
+// #else
+fn map_texel(t: vec2<i32>, layer: i32) -> f32 {
+    return textureLoad(shadow_maps, t, layer, 0).r;
+}
+// #endif
+
+// The nearest stored depth of sample s of the level (0 off the map: nothing there occludes).
+fn nearest_at(l: Level, s: vec2<i32>) -> f32 {
+    if (any(s < vec2<i32>(0)) || any(s >= vec2<i32>(l.side))) {
+        return 0.0;
+    }
+    if (l.level == 0u) {
+        return map_texel(s, l.layer);
+    }
+    return hsm[l.base + u32(s.y) * u32(l.side) + u32(s.x)].x;
+}
+
+// Whether sample s occludes the receiver: nearer the light than the receiver's plane there.
+fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
+    let o = (vec2<f32>(s) + vec2<f32>(0.5)) * l.scale - px.st;
+    return px.z + dot(px.g, o) + l.slack;
+}
+
+// (stored depth, 1 if it occludes) of sample s.
+fn occludes(px: Pixel, l: Level, s: vec2<i32>) -> vec2<f32> {
+    let d = nearest_at(l, s);
+    return vec2<f32>(d, select(0.0, 1.0, d > threshold(px, l, s)));
+}
+
+fn mask_at(px: Pixel, l: Level, c: vec2<i32>) -> u32 {
+    let o0 = occludes(px, l, c).y;
+    let o1 = occludes(px, l, c + vec2<i32>(1, 0)).y;
+    let o2 = occludes(px, l, c + vec2<i32>(1, 1)).y;
+    let o3 = occludes(px, l, c + vec2<i32>(0, 1)).y;
+    return u32(o0) | (u32(o1) << 1u) | (u32(o2) << 2u) | (u32(o3) << 3u);
+}
+
+fn holder_depth(h: u32, d: vec4<f32>) -> f32 {
+    return select(select(d.w, d.z, h == 2u), select(d.y, d.x, h == 0u), h < 2u);
+}
+
+// The part of emitter-domain area an edge between block points a, b (sample coordinates) with
+// stored depths da, db hides or reveals.
+fn edge_term(px: Pixel, l: Level, a: vec2<f32>, da: f32, b: vec2<f32>, db: f32) -> f32 {
+    let qa = unproject(px, (a + vec2<f32>(0.5)) * l.scale, da);
+    let qb = unproject(px, (b + vec2<f32>(0.5)) * l.scale, db);
+    let la = emitter_coords(px, qa);
+    let lb = emitter_coords(px, qb);
+    if (px.flip > 0.0) {
+        return edge_area(px.disk, la, lb);
+    }
+    return edge_area(px.disk, lb, la);
+}
+
+// The edges' terms of the blocks with lower-left sample (i, j), i in [i0, i1], in row j.
+fn row_terms(px: Pixel, l: Level, t: f32, i0: i32, i1: i32, j: i32) -> f32 {
+    var sum = 0.0;
+    // Samples slide along the row: (i, j), (i, j + 1) are the last block's right column.
+    var s0 = occludes(px, l, vec2<i32>(i0, j));
+    var s3 = occludes(px, l, vec2<i32>(i0, j + 1));
+    for (var i = i0; i <= i1; i = i + 1) {
+        let s1 = occludes(px, l, vec2<i32>(i + 1, j));
+        let s2 = occludes(px, l, vec2<i32>(i + 1, j + 1));
+        let mask = u32(s0.y) | (u32(s1.y) << 1u) | (u32(s2.y) << 2u) | (u32(s3.y) << 3u);
+        if (mask != 0u && mask != 15u) {
+            let e = block_edges(mask, t);
+            let centre = vec2<f32>(f32(i) + 0.5, f32(j) + 0.5);
+            let depths = vec4<f32>(s0.x, s1.x, s2.x, s3.x);
+            if (e.count >= 1u) {
+                sum = sum + edge_term(px, l, centre + e.a0, holder_depth(e.ha0, depths), centre + e.b0, holder_depth(e.hb0, depths));
+            }
+            if (e.count == 2u) {
+                sum = sum + edge_term(px, l, centre + e.a1, holder_depth(e.ha1, depths), centre + e.b1, holder_depth(e.hb1, depths));
+            }
+        }
+        s0 = s1;
+        s3 = s2;
+    }
+    return sum;
+}
+
+// Whether the samples [lo, hi] of level l are all on one side of the receiver's plane, from the
+// pyramid two levels up (whose texels cover 4 × 4 samples): then their blocks have no edge.
+fn uniform_samples(px: Pixel, l: Level, lo: vec2<i32>, hi: vec2<i32>) -> bool {
+    let coarse = l.level + 2u;
+    if (coarse > u32(ssm.limits.z)) {
+        return false;
+    }
+    let c = level_of(px, coarse);
+    let a = lo >> vec2<u32>(2u);
+    let b = hi >> vec2<u32>(2u);
+    var nearest = 0.0;
+    var farthest = 1.0;
+    for (var y = a.y; y <= b.y; y = y + 1) {
+        for (var x = a.x; x <= b.x; x = x + 1) {
+            let t = vec2<i32>(x, y);
+            var d = vec2<f32>(0.0);
+            if (all(t >= vec2<i32>(0)) && all(t < vec2<i32>(c.side))) {
+                d = hsm[c.base + u32(y) * u32(c.side) + u32(x)];
+            }
+            nearest = max(nearest, d.x);
+            farthest = min(farthest, d.y);
+        }
+    }
+    // The receiver's plane over the samples is linear: its extremes are at the corners.
+    let t00 = threshold(px, l, lo);
+    let t11 = threshold(px, l, hi);
+    let t10 = threshold(px, l, vec2<i32>(hi.x, lo.y));
+    let t01 = threshold(px, l, vec2<i32>(lo.x, hi.y));
+    let low = min(min(t00, t11), min(t10, t01));
+    let high = max(max(t00, t11), max(t10, t01));
+    return nearest <= low || farthest > high;
+}
+
+// The fraction of the emitter visible from the receiver, from the contour at `level`.
+fn visibility_at(px: Pixel, level: u32) -> f32 {
+    let l = level_of(px, level);
+    let t = select(ssm.contour.y, ssm.contour.x, level == 0u);
+    // The receiver in sample coordinates of the level (sample (i, j) at (i, j)).
+    let q = px.st / l.scale - vec2<f32>(0.5);
+    // The light's centre: inside or outside the contour of the block around q.
+    let cell = vec2<i32>(floor(q));
+    let inside = centre_inside(mask_at(px, l, cell), t, q - (vec2<f32>(cell) + vec2<f32>(0.5)));
+    let area = domain_area(px.disk);
+    var v = select(area, 0.0, inside);
+    if (px.hard) {
+        return v / area;
+    }
+    // Every block (samples (i, j) … (i + 1, j + 1)) that meets the kernel, in tiles of 4 × 4
+    // blocks aligned to the pyramid two levels up; tiles on one side of the receiver are skipped.
+    let hk = px.half / l.scale;
+    let lo = vec2<i32>(ceil(q - vec2<f32>(hk + 1.0)));
+    let hi = vec2<i32>(floor(q + vec2<f32>(hk)));
+    for (var tj = lo.y >> 2u; tj <= hi.y >> 2u; tj = tj + 1) {
+        let j0 = max(lo.y, tj * 4);
+        let j1 = min(hi.y, tj * 4 + 3);
+        for (var ti = lo.x >> 2u; ti <= hi.x >> 2u; ti = ti + 1) {
+            let i0 = max(lo.x, ti * 4);
+            let i1 = min(hi.x, ti * 4 + 3);
+            if (uniform_samples(px, l, vec2<i32>(i0, j0), vec2<i32>(i1 + 1, j1 + 1))) {
+                continue;
+            }
+            for (var j = j0; j <= j1; j = j + 1) {
+                v = v + row_terms(px, l, t, i0, i1, j);
+            }
+        }
+    }
+    return clamp(v / area, 0.0, 1.0);
+}
+
+// ---- per pixel: kernel, level, class ----
+
+// Half-width (level-0 texels) of the map region that can hold an occluder of a receiver at axis
+// distance zd, for occluders no nearer than zn (Eq. 1 of §3, generalised: the emitter's depth
+// extent seen off the view's axis widens it by (1 + off-axis tangent); see
+// shadowlab_core::backprojection::kernel_half_width).
+fn kernel_half(px: Pixel, zn: f32) -> f32 {
+    let view = shadow_views[px.view];
+    let r = emitter_radius();
+    if (zn >= px.zd || r <= 0.0) {
+        return 0.0;
+    }
+    if (view.eye.w > 0.5) {
+        return r * (px.zd - zn) / view.axis.w;
+    }
+    let side = map_params.bias.z;
+    let off_axis = 0.5 * side * view.axis.w * max(abs(2.0 * px.st.x / side - 1.0), abs(2.0 * px.st.y / side - 1.0));
+    // Emitter points nearer the light's centre than its plane (a sphere's front half) see the
+    // kernel widened by z_p / (z_p − R) (shadowlab_core::backprojection::kernel_half_width).
+    let depth = px.zd / max(px.zd - r, 1.0e-6 * px.zd);
+    return (r * depth / view.axis.w) * (1.0 / max(zn, 1.0e-6) - 1.0 / px.zd) * (1.0 + off_axis);
+}
+
+struct Setup {
+    px: Pixel,
+    kind: u32,
+    // The levels blended and the weight of the second (§5.1).
+    lod: u32,
+    other: u32,
+    w: f32,
+    // The penumbra's width on screen (pixels; Eqs. 4, 5).
+    s_scr: f32,
+};
+
+fn lod_blend(lambda: f32, beta: f32, top: u32) -> vec3<f32> {
+    if (lambda < 0.0 || lambda != lambda) {
+        return vec3<f32>(0.0, 0.0, 0.0);
+    }
+    let lod = min(u32(floor(lambda)), top);
+    let d = lambda - floor(lambda);
+    if (d < beta && lod > 0u) {
+        return vec3<f32>(f32(lod), f32(lod - 1u), 0.5 * (1.0 - d / beta));
+    }
+    if (1.0 - d < beta && lod < top) {
+        return vec3<f32>(f32(lod), f32(lod + 1u), 0.5 * (1.0 - (1.0 - d) / beta));
+    }
+    return vec3<f32>(f32(lod), f32(lod), 0.0);
+}
+
+fn setup(pixel: vec2<u32>) -> Setup {
+    var out: Setup;
+    out.kind = LIT;
+    let s = load_surface(pixel);
+    if (!s.relevant) {
+        return out;
+    }
+    let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
+    if (!mp.on_map) {
+        return out;
+    }
+    var px: Pixel;
+    px.p = s.p;
+    px.n = s.n;
+    px.view = mp.layer;
+    px.inv = ssm.inv[px.view];
+    px.st = mp.uvz.xy * map_params.bias.z;
+    px.z = mp.uvz.z;
+    px.g = receiver_plane_gradient(mp, s.p, s.n);
+    px.g1 = abs(px.g.x) + abs(px.g.y);
+    let view = shadow_views[px.view];
+    px.zd = shadow_distance(view, px.z);
+    set_emitter(&px);
+    // The kernel from the nearest depth of the whole map, then tightened by the nearest depth
+    // inside it (§3).
+    let top = u32(ssm.limits.z);
+    let global = hsm_texel(px.view, top, vec2<i32>(0));
+    var half = min(kernel_half(px, shadow_distance(view, global.x)), map_params.bias.z);
+    var b = Bounds(global.x, global.y, 0.0);
+    let iterations = u32(ssm.limits.x);
+    for (var i = 0u; i < iterations; i = i + 1u) {
+        // Texels nearer than the receiver's plane anywhere in the kernel count as occluders.
+        let nb = hsm_bounds(px.view, px.st - vec2<f32>(half), px.st + vec2<f32>(half), px.z + px.g1 * (half + 1.0));
+        let nh = kernel_half(px, shadow_distance(view, nb.nearest));
+        b = nb;
+        if (nh >= half * 0.999) {
+            break;
+        }
+        half = nh;
+    }
+    // The occluders' depth for λ and the penumbra's size: the mean of the occluding texels read
+    // (continuous where the occluder is, unlike the kernel's min).
+    var z_occ = shadow_distance(view, max(b.occluder, b.nearest));
+    if (b.occluder > 0.0) {
+        z_occ = shadow_distance(view, b.occluder);
+    }
+    let smooth_half = kernel_half(px, z_occ);
+    var lod = 0u;
+    var other = 0u;
+    var w = 0.0;
+    let t_k = ssm.contour.z;
+    if (ssm.adapt.x > 0.5 && half > 0.0) {
+        // §5.1, Eq. 3; never a kernel wider than 4 t_k texels at the level used (cost bound where
+        // the occluders' mean is far behind the nearest).
+        let lambda = max(log2(max(2.0 * smooth_half, 1.0e-6) / t_k), log2(2.0 * half / (4.0 * t_k)));
+        let l = lod_blend(lambda, ssm.contour.w, top);
+        lod = u32(l.x);
+        other = u32(l.y);
+        w = l.z;
+    } else {
+        half = min(half, 0.5 * ssm.limits.y);
+    }
+    px.half = half;
+    px.lambda = f32(lod);
+    // Lit or umbra over the kernel grown by a texel of the coarser level used (its blocks).
+    let margin = f32(1u << max(lod, other));
+    let reach = half + margin;
+    let cb = hsm_bounds(px.view, px.st - vec2<f32>(reach), px.st + vec2<f32>(reach), 1.0);
+    let rise = px.g1 * (reach + 0.5 * f32(1u << max(lod, other)));
+    // The emitter's orientation on the map: three points between the light and the receiver.
+    let mid = 0.5 * (px.z + 1.0);
+    let c0 = emitter_coords(px, unproject(px, px.st, mid));
+    let c1 = emitter_coords(px, unproject(px, px.st + vec2<f32>(1.0, 0.0), mid));
+    let c2 = emitter_coords(px, unproject(px, px.st + vec2<f32>(0.0, 1.0), mid));
+    px.flip = select(-1.0, 1.0, cross2(c1 - c0, c2 - c0) >= 0.0);
+    out.px = px;
+    out.lod = lod;
+    out.other = other;
+    out.w = w;
+    if (cb.nearest <= px.z - rise) {
+        out.kind = LIT;
+    } else if (cb.farthest > px.z + rise) {
+        out.kind = UMBRA;
+    } else {
+        out.kind = PENUMBRA;
+    }
+    // Eq. 4: the penumbra's width in the world (the emitter's diameter for w_l), Eq. 5: on screen.
+    let r = emitter_radius();
+    var s_obj = 2.0 * r * max(px.zd - z_occ, 0.0);
+    if (view.eye.w < 0.5) {
+        s_obj = s_obj / max(z_occ, 1.0e-6);
+    }
+    let across = basis_u(normalize(s.p - camera.position.xyz));
+    let a = camera.view_proj * vec4<f32>(s.p, 1.0);
+    let c = camera.view_proj * vec4<f32>(s.p + across * s_obj, 1.0);
+    let shift = (c.xy / c.w - a.xy / a.w) * 0.5 * camera.size.xy;
+    out.s_scr = length(shift) * abs(dot(s.n, normalize(camera.position.xyz - s.p)));
+    return out;
+}
+
+fn pixel_index(pixel: vec2<u32>) -> u32 {
+    return pixel.y * u32(camera.size.x) + pixel.x;
+}
+
+// ---- passes ----
+
+fn surface_depth(pixel: vec2<i32>) -> f32 {
+    let last = vec2<i32>(camera.size.xy) - vec2<i32>(1);
+    let q = clamp(pixel, vec2<i32>(0), last);
+    let depth = textureLoad(depth_texture, q, 0).r;
+    if (is_background(camera, depth)) {
+        return -1.0;
+    }
+    return length(world_from_depth(camera, vec2<u32>(q), depth) - camera.position.xyz);
+}
+
+// The discontinuity buffer (§5.2): a step in the camera's depth or normal to a 4-neighbour (one of
+// them background, a relative depth step, or a turn of the normal).
+@compute @workgroup_size(8, 8)
+fn edges(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (!in_frame(id.xy)) {
+        return;
+    }
+    let p = vec2<i32>(id.xy);
+    let d = surface_depth(p);
+    let n = textureLoad(normal_texture, p, 0).xyz;
+    let last = vec2<i32>(camera.size.xy) - vec2<i32>(1);
+    var edge = 0u;
+    for (var k = 0; k < 4; k = k + 1) {
+        let axis = select(vec2<i32>(0, 1), vec2<i32>(1, 0), k < 2);
+        let q = clamp(p + select(-axis, axis, (k & 1) == 0), vec2<i32>(0), last);
+        let dq = surface_depth(q);
+        let m = textureLoad(normal_texture, q, 0).xyz;
+        let background = (d < 0.0) != (dq < 0.0);
+        let depth_step = abs(dq - d) > ssm.screen.x * min(d, dq);
+        // Unnormalised: n·m < cos θ |n||m|.
+        let turn = dot(n, m) < ssm.screen.y * sqrt(dot(n, n) * dot(m, m));
+        edge = edge | select(0u, 1u, background || (d >= 0.0 && (depth_step || turn)));
+    }
+    flags[pixel_index(id.xy)] = edge;
+}
+
+// The selection pattern (§5.2, Eq. 6): a pixel's rank (1-based) in an ordered-dither tile.
+fn pattern_rank(h: u32, x: u32, y: u32) -> u32 {
+    // Bayer matrices by bit interleaving, M_2n = 4 M_2(low bits) + M_n(high bits).
+    var levels = 0u;
+    if (h >= 8u) {
+        levels = 3u;
+    } else if (h >= 4u) {
+        levels = 2u;
+    } else if (h >= 2u) {
+        levels = 1u;
+    }
+    let xx = x ^ y;
+    var r = 0u;
+    for (var k = 0u; k < levels; k = k + 1u) {
+        // From the least significant bit of the coordinates to the most significant of the rank.
+        r = (r << 2u) | (((xx >> k) & 1u) << 1u) | ((y >> k) & 1u);
+    }
+    return r + 1u;
+}
+
+fn near_discontinuity(pixel: vec2<u32>) -> bool {
+    let reach = i32(ssm.screen.z);
+    let last = vec2<i32>(camera.size.xy) - vec2<i32>(1);
+    for (var y = -reach; y <= reach; y = y + 1) {
+        for (var x = -reach; x <= reach; x = x + 1) {
+            let q = clamp(vec2<i32>(pixel) + vec2<i32>(x, y), vec2<i32>(0), last);
+            if (flags[u32(q.y) * u32(camera.size.x) + u32(q.x)] != 0u) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+@compute @workgroup_size(8, 8)
+fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (!in_frame(id.xy)) {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    let s = setup(id.xy);
+    if (s.kind == LIT) {
+        vbuf[i] = vec2<f32>(1.0, 1.0);
+        return;
+    }
+    if (s.kind == UMBRA) {
+        vbuf[i] = vec2<f32>(0.0, 1.0);
+        return;
+    }
+    var selected = true;
+    if (ssm.adapt.y > 0.5) {
+        let h = max(u32(ssm.adapt.w), 1u);
+        let rank = pattern_rank(h, id.x % h, id.y % h);
+        // Eq. 6 with pattern = h² / rank: the rank-1 pixel of every tile always, the others while
+        // the penumbra is narrow enough on screen; always next to a discontinuity.
+        let pattern = f32(h * h) / f32(rank);
+        selected = rank == 1u || !(s.s_scr >= ssm.adapt.z * sqrt(pattern)) || near_discontinuity(id.xy);
+    }
+    if (selected) {
+        vbuf[i] = vec2<f32>(0.0, 1.0);
+        let slot = atomicAdd(&work.count, 1u);
+        list[slot] = i;
+    } else {
+        vbuf[i] = vec2<f32>(0.0, 0.0);
+    }
+}
+
+@compute @workgroup_size(64)
+fn visibility(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= atomicLoad(&work.count)) {
+        return;
+    }
+    let i = list[id.x];
+    let width = u32(camera.size.x);
+    let pixel = vec2<u32>(i % width, i / width);
+    let s = setup(pixel);
+    var v = visibility_at(s.px, s.lod);
+    if (s.w > 0.0) {
+        v = mix(v, visibility_at(s.px, s.other), s.w);
+    }
+    vbuf[i] = vec2<f32>(v, 1.0);
+}

@@ -5,7 +5,7 @@
 //!
 //! - [`gpu::Gpu`]: a device found headless ([`gpu::Gpu::new`]) or an application's own
 //!   ([`gpu::Gpu::from_device`]).
-//! - [`renderer::Shadows`]: shadows for every light over a [`frame::SurfaceInputs`] (depth,
+//! - [`shadows::Shadows`]: shadows for every light over a [`frame::SurfaceInputs`] (depth,
 //!   normals, camera): what applications embed.
 //! - [`renderer::Renderer`]: shadowlab's own deferred frame around it (G-buffer, lighting, tone
 //!   mapping) with readbacks for the reports.

@@ -68,7 +68,7 @@ pub struct Raster {
     pub slope_bias: f32,
 }
 
-/// Parameters shared by `hard`, `pcf` and the other map techniques (see [`map_params!`]).
+/// Parameters shared by `hard`, `pcf` and the other map techniques (see [`map_params!`](crate::map_params)).
 pub const MAP_SIZE: ParamDef = ParamDef::int("map_size", 2048, 16, 8192, "shadow map resolution (texels per side)");
 pub const FACES: ParamDef =
     ParamDef::choice("faces", "back", &["back", "front", "both"], "faces of closed meshes rendered into the map");

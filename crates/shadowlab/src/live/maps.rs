@@ -12,7 +12,7 @@
 //! device cannot hold more layers, static and dynamic casters share the static layer and its
 //! signature names both.
 //!
-//! **Spread over frames** ([`super::scheduler`]): with an unlimited [`Budget`] every stale view is
+//! **Spread over frames** ([`super::scheduler`]): with an unlimited [`Budget`](super::scheduler::Budget) every stale view is
 //! rendered in place in the frame that made it stale. With a limited one, each stale view is a unit
 //! rendered into layers of its own while the budget allows; the set keeps showing its previous
 //! complete state until every stale view has been rendered for the current state, then all switch

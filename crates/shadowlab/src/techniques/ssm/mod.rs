@@ -28,6 +28,13 @@
 //! pixel, the sun as its cone of directions in gnomonic projection (a disk of radius tan θ). The
 //! CPU reference of the rules, with their unit tests, is [`shadowlab_core::backprojection`].
 //!
+//! Beyond the paper: the emitter's part below the receiver's tangent plane is hidden by the receiver
+//! itself (the attached shadow at a terminator, which no depth map holds:
+//! [`shadowlab_core::backprojection::fraction_above`]), combined with the contour's fraction by the
+//! minimum; the receiver's plane (receiver-plane depth bias, Isidoro 2006) is extrapolated only
+//! `plane_reach` texels, beyond which curved receivers leave it and it would hide real occluders; and
+//! `show` writes the class, the level or the kernel instead of V, for analysis.
+//!
 //! Known limits: one depth layer (occluders hidden behind others in the map are missed, as in the
 //! paper, §8); a point light's kernel stays on the cube face of the pixel, so penumbrae crossing a
 //! face seam lose the edges beyond it.
@@ -41,6 +48,9 @@ use crate::light_map::LightMap;
 use crate::shadowmap::{CONSTANT_BIAS, FACES, NORMAL_OFFSET, SLOPE_BIAS, lookup_layout};
 use crate::technique::{FrameContext, Handover, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
 use crate::timing::PassKind;
+
+/// What `show` can put in the visibility layer instead of V (for analysis).
+const SHOW: [&str; 4] = ["visibility", "class", "level", "kernel"];
 
 /// Pyramid levels the uniform has room for (maps up to 2^15 texels wide).
 const MAX_LEVELS: usize = 16;
@@ -66,6 +76,13 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::float("beta", 0.05, 0.0, 0.5, "band of the continuous level over which two levels blend"),
         ParamDef::float("max_kernel", 256.0, 2.0, 4096.0, "widest kernel (texels) without lod; wider is clipped"),
         ParamDef::int("iterations", 4, 1, 16, "kernel-tightening steps"),
+        ParamDef::float(
+            "plane_reach",
+            2.0,
+            0.0,
+            1.0e9,
+            "how far (texels) the receiver's plane is extrapolated when testing samples (receiver-plane bias)",
+        ),
         ParamDef::bool("adaptive", true, "screen-space adaptive sampling with pull-push"),
         ParamDef::float(
             "s_min",
@@ -75,6 +92,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
             "penumbra width on screen (pixels) where pixels start being skipped",
         ),
         ParamDef::choice("pattern", "4", &["2", "4", "8"], "width of the selection pattern"),
+        ParamDef::choice(
+            "show",
+            "visibility",
+            &SHOW,
+            "analysis: the visibility; lit 1, penumbra ½, umbra 0; the level used (⅛ per level); the kernel's width (1 at 256 texels)",
+        ),
     ],
     light_types: super::ALL_LIGHTS,
     create,
@@ -89,6 +112,7 @@ struct SsmUniform {
     adapt: [f32; 4],
     limits: [f32; 4],
     screen: [f32; 4],
+    extra: [f32; 4],
     levels: [[u32; 4]; MAX_LEVELS],
     inv: [[[f32; 4]; 4]; MAX_VIEWS],
 }
@@ -219,6 +243,7 @@ fn create(
     let device = &shared.gpu.device;
     let pattern: u32 = params.choice("pattern").parse().unwrap_or(4);
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
+    let show = SHOW.iter().position(|&c| c == params.choice("show")).unwrap_or(0);
     let values = SsmUniform {
         contour: [
             params.float("t") as f32,
@@ -229,7 +254,8 @@ fn create(
         adapt: [flag(params.bool("lod")), flag(params.bool("adaptive")), params.float("s_min") as f32, pattern as f32],
         limits: [params.int("iterations") as f32, params.float("max_kernel") as f32, 0.0, 0.0],
         // Discontinuities force exact pixels as far as the pattern spaces them.
-        screen: [DEPTH_STEP, NORMAL_COS, pattern as f32, 0.0],
+        screen: [DEPTH_STEP, NORMAL_COS, pattern as f32, show as f32],
+        extra: [0.0, params.float("plane_reach") as f32, 0.0, 0.0],
         levels: [[0; 4]; MAX_LEVELS],
         inv: [[[0.0; 4]; 4]; MAX_VIEWS],
     };
@@ -537,5 +563,5 @@ impl ShadowTechnique for Ssm {
     }
 }
 
-// The uniform's layout is WGSL's: four vec4s, 16 level entries, 6 matrices.
-const _: () = assert!(std::mem::size_of::<SsmUniform>() == 4 * 16 + MAX_LEVELS * 16 + MAX_VIEWS * 64);
+// The uniform's layout is WGSL's: five vec4s, 16 level entries, 6 matrices.
+const _: () = assert!(std::mem::size_of::<SsmUniform>() == 5 * 16 + MAX_LEVELS * 16 + MAX_VIEWS * 64);

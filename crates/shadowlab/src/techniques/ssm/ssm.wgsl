@@ -25,8 +25,11 @@ struct Ssm {
     // pyramid; w: texels of one view's pyramid (levels ≥ 1).
     limits: vec4<f32>,
     // x: relative depth step and y: cosine of the normal angle that make a discontinuity; z: how far
-    // (pixels) discontinuities force exact computation.
+    // (pixels) discontinuities force exact computation; w: what to show (0: visibility, 1: the
+    // class, 2: the level, 3: the kernel's width).
     screen: vec4<f32>,
+    // y: how far (level-0 texels) the receiver's plane is extrapolated.
+    extra: vec4<f32>,
     // Per pyramid level ≥ 1: x: offset in a view's block, y: side (texels).
     levels: array<vec4<u32>, 16>,
     // Inverse view-projection of each view the lookups read.
@@ -334,6 +337,86 @@ fn edge_area(disk: bool, a: vec2<f32>, b: vec2<f32>) -> f32 {
     return sign(c) * beyond;
 }
 
+// ---- the receiver's own horizon ----
+
+// The fraction of the emitter above the receiver's tangent plane (normal n): the part below is hidden
+// by the receiver itself (the attached shadow near a terminator, which the truth's rays see and a
+// depth map cannot, since the receiver's own samples are not occluders). In normalised emitter
+// coordinates the plane is the half-plane k0 + k1 u + k2 v > 0.
+fn horizon(px: Pixel) -> f32 {
+    let kind = light_kind(light);
+    let n = px.n;
+    var k = vec3<f32>(0.0);
+    if (kind == LIGHT_RECT) {
+        let half = 0.5 * light.cone.zw;
+        let tangent = normalize(light.tangent.xyz);
+        let bitangent = normalize(cross(light.direction.xyz, tangent));
+        k = vec3<f32>(dot(light.position.xyz - px.p, n), half.x * dot(tangent, n), half.y * dot(bitangent, n));
+    } else {
+        let u = basis_u(px.m);
+        let b = cross(px.m, u);
+        let r = emitter_radius();
+        // A local light's disk lies at distance k along m; the sun's directions are m + tan θ (u, v).
+        let along = select(px.k, 1.0, kind == LIGHT_DIRECTIONAL);
+        k = vec3<f32>(along * dot(px.m, n), r * dot(u, n), r * dot(b, n));
+    }
+    return emitter_above(px.disk, k);
+}
+
+// The fraction of the normalised domain where k.x + k.y u + k.z v > 0 (shadowlab_core::backprojection
+// ::fraction_above).
+fn emitter_above(disk: bool, k: vec3<f32>) -> f32 {
+    if (any(k != k)) {
+        return 1.0;
+    }
+    let l = length(k.yz);
+    if (l < 1.0e-12) {
+        return select(0.0, 1.0, k.x > 0.0);
+    }
+    if (disk) {
+        // The centre's signed distance to the line; the circular segment beyond it is hidden.
+        let d = clamp(k.x / l, -1.0, 1.0);
+        return (3.14159265 - (acos(d) - d * sqrt(max(1.0 - d * d, 0.0)))) / 3.14159265;
+    }
+    // The square clipped by the half-plane (one Sutherland–Hodgman step), its area by the shoelace
+    // formula accumulated edge by edge.
+    let corners = array<vec2<f32>, 4>(vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0));
+    var twice = 0.0;
+    var first = vec2<f32>(0.0);
+    var last = vec2<f32>(0.0);
+    var started = false;
+    for (var i = 0; i < 4; i = i + 1) {
+        let a = corners[i];
+        let b = corners[(i + 1) % 4];
+        let fa = k.x + dot(k.yz, a);
+        let fb = k.x + dot(k.yz, b);
+        if (fa >= 0.0) {
+            if (started) {
+                twice = twice + cross2(last, a);
+            } else {
+                first = a;
+                started = true;
+            }
+            last = a;
+        }
+        if ((fa >= 0.0) != (fb >= 0.0)) {
+            let x = a + (fa / (fa - fb)) * (b - a);
+            if (started) {
+                twice = twice + cross2(last, x);
+            } else {
+                first = x;
+                started = true;
+            }
+            last = x;
+        }
+    }
+    if (!started) {
+        return 0.0;
+    }
+    twice = twice + cross2(last, first);
+    return clamp(0.5 * twice / 4.0, 0.0, 1.0);
+}
+
 // ---- smooth contour detection (§4.1) ----
 
 // Sample i's centre in a 2 × 2 block's frame: 0 (−½, −½), 1 (½, −½), 2 (½, ½), 3 (−½, ½).
@@ -492,7 +575,12 @@ fn nearest_at(l: Level, s: vec2<i32>) -> f32 {
 // Whether sample s occludes the receiver: nearer the light than the receiver's plane there.
 fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
     let o = (vec2<f32>(s) + vec2<f32>(0.5)) * l.scale - px.st;
-    return px.z + dot(px.g, o) + l.slack;
+    // The receiver's plane holds near it only: beyond `plane_reach` texels a curved receiver leaves
+    // its tangent plane, and extrapolating it would hide real occluders.
+    let reach = ssm.extra.y;
+    let r = length(o);
+    let along = select(o, o * (reach / r), r > reach);
+    return px.z + dot(px.g, along) + l.slack;
 }
 
 // (stored depth, 1 if it occludes) of sample s.
@@ -576,13 +664,13 @@ fn uniform_samples(px: Pixel, l: Level, lo: vec2<i32>, hi: vec2<i32>) -> bool {
             farthest = min(farthest, d.y);
         }
     }
-    // The receiver's plane over the samples is linear: its extremes are at the corners.
-    let t00 = threshold(px, l, lo);
-    let t11 = threshold(px, l, hi);
-    let t10 = threshold(px, l, vec2<i32>(hi.x, lo.y));
-    let t01 = threshold(px, l, vec2<i32>(lo.x, hi.y));
-    let low = min(min(t00, t11), min(t10, t01));
-    let high = max(max(t00, t11), max(t10, t01));
+    // The receiver's plane over the samples rises at most |g| per texel, out to `plane_reach`.
+    let a0 = (vec2<f32>(lo) + vec2<f32>(0.5)) * l.scale - px.st;
+    let a1 = (vec2<f32>(hi) + vec2<f32>(0.5)) * l.scale - px.st;
+    let far = length(max(abs(a0), abs(a1)));
+    let e = length(px.g) * min(far, ssm.extra.y);
+    let low = px.z - e + l.slack;
+    let high = px.z + e + l.slack;
     return nearest <= low || farthest > high;
 }
 
@@ -654,6 +742,8 @@ struct Setup {
     w: f32,
     // The penumbra's width on screen (pixels; Eqs. 4, 5).
     s_scr: f32,
+    // The part of the emitter above the receiver's tangent plane.
+    horizon: f32,
 };
 
 fn lod_blend(lambda: f32, beta: f32, top: u32) -> vec3<f32> {
@@ -674,6 +764,7 @@ fn lod_blend(lambda: f32, beta: f32, top: u32) -> vec3<f32> {
 fn setup(pixel: vec2<u32>) -> Setup {
     var out: Setup;
     out.kind = LIT;
+    out.horizon = 1.0;
     let s = load_surface(pixel);
     if (!s.relevant) {
         return out;
@@ -694,6 +785,9 @@ fn setup(pixel: vec2<u32>) -> Setup {
     let view = shadow_views[px.view];
     px.zd = shadow_distance(view, px.z);
     set_emitter(&px);
+    if (!px.hard) {
+        out.horizon = horizon(px);
+    }
     // The kernel from the nearest depth of the whole map, then tightened by the nearest depth
     // inside it (§3).
     let top = u32(ssm.limits.z);
@@ -855,11 +949,16 @@ fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = pixel_index(id.xy);
     let s = setup(id.xy);
     if (s.kind == LIT) {
-        vbuf[i] = vec2<f32>(1.0, 1.0);
+        vbuf[i] = vec2<f32>(select(s.horizon, 1.0, ssm.screen.w == 1.0), 1.0);
         return;
     }
     if (s.kind == UMBRA) {
         vbuf[i] = vec2<f32>(0.0, 1.0);
+        return;
+    }
+    if (ssm.screen.w == 1.0) {
+        // Analysis: penumbra pixels at ½.
+        vbuf[i] = vec2<f32>(0.5, 1.0);
         return;
     }
     var selected = true;
@@ -889,9 +988,21 @@ fn visibility(@builtin(global_invocation_id) id: vec3<u32>) {
     let width = u32(camera.size.x);
     let pixel = vec2<u32>(i % width, i / width);
     let s = setup(pixel);
+    if (ssm.screen.w == 2.0) {
+        // Analysis: the continuous level used, an eighth per level.
+        vbuf[i] = vec2<f32>(min((f32(s.lod) + s.w * (f32(s.other) - f32(s.lod))) / 8.0, 1.0), 1.0);
+        return;
+    }
+    if (ssm.screen.w == 3.0) {
+        // Analysis: the kernel's width in level-0 texels, 1 at 256.
+        vbuf[i] = vec2<f32>(min(s.px.half / 128.0, 1.0), 1.0);
+        return;
+    }
     var v = visibility_at(s.px, s.lod);
     if (s.w > 0.0) {
         v = mix(v, visibility_at(s.px, s.other), s.w);
     }
-    vbuf[i] = vec2<f32>(v, 1.0);
+    // The receiver's horizon and the occluders' contour, combined by the minimum (exact when one
+    // hides a part of the emitter the other does too).
+    vbuf[i] = vec2<f32>(min(v, s.horizon), 1.0);
 }

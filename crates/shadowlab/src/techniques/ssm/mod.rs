@@ -52,6 +52,10 @@ use crate::timing::PassKind;
 /// What `show` can put in the visibility layer instead of V (for analysis).
 const SHOW: [&str; 4] = ["visibility", "class", "level", "kernel"];
 
+/// Workgroups (of 64) of the visibility pass on CPU adapters, each invocation looping over the list:
+/// enough to keep every core busy, few enough that invocations past the list's end cost nothing.
+const CPU_GROUPS: u32 = 32;
+
 /// Pyramid levels the uniform has room for (maps up to 2^15 texels wide).
 const MAX_LEVELS: usize = 16;
 /// Views of one light (a cube's faces).
@@ -186,6 +190,10 @@ struct Ssm {
     triangles: u64,
     /// Pyramid levels reduced by the last frame.
     reduced: u32,
+    /// The listed pixels are dispatched indirectly (their count from the GPU), except on CPU adapters,
+    /// where wgpu's validation of indirect arguments cost 20 ms a frame on llvmpipe: there a direct
+    /// dispatch of [`CPU_GROUPS`] workgroups loops over the list.
+    indirect: bool,
 }
 
 fn own_layout(shared: &Shared) -> wgpu::BindGroupLayout {
@@ -270,6 +278,7 @@ fn create(
         screen: None,
         triangles: 0,
         reduced: 0,
+        indirect: shared.gpu.adapter.device_type != "cpu",
     }))
 }
 
@@ -475,9 +484,11 @@ impl ShadowTechnique for Ssm {
             }
             pass.set_pipeline(&p.classify);
             pass.dispatch_workgroups(gx, gy, 1);
-            pass.set_bind_group(3, Some(&screen.finish), &[]);
-            pass.set_pipeline(&p.args);
-            pass.dispatch_workgroups(1, 1, 1);
+            if self.indirect {
+                pass.set_bind_group(3, Some(&screen.finish), &[]);
+                pass.set_pipeline(&p.args);
+                pass.dispatch_workgroups(1, 1, 1);
+            }
         }
         {
             // The listed pixels' visibility: the back-projection proper.
@@ -491,7 +502,15 @@ impl ShadowTechnique for Ssm {
             pass.set_bind_group(1, Some(&lookup), &[]);
             pass.set_bind_group(2, Some(&screen.own), &[]);
             if std::env::var("SSM_SKIP").is_err() {
-                pass.dispatch_workgroups_indirect(&screen.args, 0);
+                if self.indirect {
+                    pass.dispatch_workgroups_indirect(&screen.args, 0);
+                } else {
+                    pass.dispatch_workgroups(
+                        (ctx.surface.width * ctx.surface.height).div_ceil(64).min(CPU_GROUPS),
+                        1,
+                        1,
+                    );
+                }
             }
         }
         let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);

@@ -146,8 +146,10 @@ struct Pixel {
     flip: f32,
     // A zero-size emitter: the contour's hard shadow.
     hard: bool,
-    // The view's inverse view-projection.
-    inv: mat4x4<f32>,
+    // emitter_at's rows.
+    rt: vec4<f32>,
+    rb: vec4<f32>,
+    rm: vec4<f32>,
 };
 
 fn basis_u(m: vec3<f32>) -> vec3<f32> {
@@ -208,17 +210,25 @@ fn set_emitter(px: ptr<function, Pixel>) {
     (*px).disk = true;
 }
 
-fn emitter_coords(px: Pixel, q: vec3<f32>) -> vec2<f32> {
-    let d = q - px.p;
-    let den = max(dot(d, px.m), 1.0e-9 * length(d) + 1.0e-30);
-    return px.base + (px.k / den) * vec2<f32>(dot(d, px.t), dot(d, px.b));
+// The emitter coordinates of the point stored at level-0 texel position st with stored depth `depth`,
+// seen from the receiver. Unprojection and back-projection folded into three rows per pixel:
+// (X, Y, Z) = rows · (st, depth, 1) are (T·(q − p), B·(q − p), m·(q − p)) up to the unprojection's
+// common w, which cancels in X / Z and Y / Z.
+fn emitter_at(px: Pixel, st: vec2<f32>, depth: f32) -> vec2<f32> {
+    let s = vec4<f32>(st, depth, 1.0);
+    let x = dot(px.rt, s);
+    let y = dot(px.rb, s);
+    let z = max(dot(px.rm, s), 1.0e-9 * (abs(x) + abs(y)) + 1.0e-30);
+    return px.base + (px.k / z) * vec2<f32>(x, y);
 }
 
-// The world point stored at level-0 texel position st with stored depth `depth`.
-fn unproject(px: Pixel, st: vec2<f32>, depth: f32) -> vec3<f32> {
-    let uv = st / map_params.bias.z;
-    let h = px.inv * vec4<f32>(2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y, depth, 1.0);
-    return h.xyz / h.w;
+// The row of `emitter_at` for direction a: a · (q − p) as a function of (st, depth, 1), q the
+// unprojection (inverse view-projection `inv`) of map texel position st at stored depth `depth`.
+fn emitter_row(inv: mat4x4<f32>, p: vec3<f32>, a: vec3<f32>) -> vec4<f32> {
+    // Over NDC: aᵀ·q_h.xyz − (a·p)·q_h.w; then NDC x = 2 st.x / S − 1, y = 1 − 2 st.y / S.
+    let r = transpose(inv) * vec4<f32>(a, -dot(p, a));
+    let k = 2.0 / map_params.bias.z;
+    return vec4<f32>(r.x * k, -r.y * k, r.z, r.w - r.x + r.y);
 }
 
 // ---- the normalised emitter domain: [−1, 1]² or the unit disk ----
@@ -241,28 +251,32 @@ fn clip_range(disk: bool, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
         let r = sqrt(disc);
         return vec2<f32>(max((-qb - r) / qa, 0.0), min((-qb + r) / qa, 1.0));
     }
-    // Liang–Barsky against the four sides.
-    var t0 = 0.0;
-    var t1 = 1.0;
-    let ps = array<f32, 4>(-d.x, d.x, -d.y, d.y);
-    let qs = array<f32, 4>(a.x + 1.0, 1.0 - a.x, a.y + 1.0, 1.0 - a.y);
-    for (var i = 0; i < 4; i = i + 1) {
-        let p = ps[i];
-        let q = qs[i];
-        if (p == 0.0) {
-            if (q < 0.0) {
-                return vec2<f32>(1.0, 0.0);
-            }
-        } else {
-            let r = q / p;
-            if (p < 0.0) {
-                t0 = max(t0, r);
-            } else {
-                t1 = min(t1, r);
-            }
-        }
+    // Liang–Barsky against the four sides (unrolled: a CPU driver keeps indexed local arrays in
+    // memory, zeroed on every invocation).
+    var r = vec2<f32>(0.0, 1.0);
+    r = clip_side(r, -d.x, a.x + 1.0);
+    r = clip_side(r, d.x, 1.0 - a.x);
+    r = clip_side(r, -d.y, a.y + 1.0);
+    r = clip_side(r, d.y, 1.0 - a.y);
+    return r;
+}
+
+// One Liang–Barsky side p·s ≤ q applied to the parameter range r (empty: r.x > r.y).
+fn clip_side(r: vec2<f32>, p: f32, q: f32) -> vec2<f32> {
+    if (p == 0.0) {
+        return select(r, vec2<f32>(1.0, 0.0), q < 0.0);
     }
-    return vec2<f32>(t0, t1);
+    let t = q / p;
+    if (p < 0.0) {
+        return vec2<f32>(max(r.x, t), r.y);
+    }
+    return vec2<f32>(r.x, min(r.y, t));
+}
+
+// Corner i of the square, counter-clockwise from (1, 1).
+fn square_corner(i: i32) -> vec2<f32> {
+    let k = i & 3;
+    return vec2<f32>(select(-1.0, 1.0, k == 0 || k == 3), select(-1.0, 1.0, k < 2));
 }
 
 // The square's boundary point in direction u.
@@ -282,11 +296,10 @@ fn sector_area(disk: bool, a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
         return 0.5 * atan2(abs(cross2(a, b)), dot(a, b));
     }
     // A fan over the rim: a's rim point, the corners inside the wedge in turn, b's rim point.
-    let corners = array<vec2<f32>, 4>(vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0), vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0));
     var first = -1;
     var second = -1;
     for (var i = 0; i < 4; i = i + 1) {
-        let c = corners[i];
+        let c = square_corner(i);
         if (cross2(a, c) > 0.0 && cross2(c, b) > 0.0) {
             if (first < 0) {
                 first = i;
@@ -303,12 +316,12 @@ fn sector_area(disk: bool, a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
     var prev = square_rim(a);
     var area = 0.0;
     if (first >= 0) {
-        area = area + cross2(prev, corners[first]);
-        prev = corners[first];
+        area = area + cross2(prev, square_corner(first));
+        prev = square_corner(first);
     }
     if (second >= 0) {
-        area = area + cross2(prev, corners[second]);
-        prev = corners[second];
+        area = area + cross2(prev, square_corner(second));
+        prev = square_corner(second);
     }
     area = area + cross2(prev, square_rim(b));
     return 0.5 * area;
@@ -380,14 +393,13 @@ fn emitter_above(disk: bool, k: vec3<f32>) -> f32 {
     }
     // The square clipped by the half-plane (one Sutherland–Hodgman step), its area by the shoelace
     // formula accumulated edge by edge.
-    let corners = array<vec2<f32>, 4>(vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0));
     var twice = 0.0;
     var first = vec2<f32>(0.0);
     var last = vec2<f32>(0.0);
     var started = false;
     for (var i = 0; i < 4; i = i + 1) {
-        let a = corners[i];
-        let b = corners[(i + 1) % 4];
+        let a = square_corner(i + 2);
+        let b = square_corner(i + 3);
         let fa = k.x + dot(k.yz, a);
         let fb = k.x + dot(k.yz, b);
         if (fa >= 0.0) {
@@ -575,12 +587,10 @@ fn nearest_at(l: Level, s: vec2<i32>) -> f32 {
 // Whether sample s occludes the receiver: nearer the light than the receiver's plane there.
 fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
     let o = (vec2<f32>(s) + vec2<f32>(0.5)) * l.scale - px.st;
-    // The receiver's plane holds near it only: beyond `plane_reach` texels a curved receiver leaves
-    // its tangent plane, and extrapolating it would hide real occluders.
+    // The receiver's plane holds near it only: beyond `plane_reach` texels (per axis) a curved
+    // receiver leaves its tangent plane, and extrapolating it would hide real occluders.
     let reach = ssm.extra.y;
-    let r = length(o);
-    let along = select(o, o * (reach / r), r > reach);
-    return px.z + dot(px.g, along) + l.slack;
+    return px.z + dot(px.g, clamp(o, vec2<f32>(-reach), vec2<f32>(reach))) + l.slack;
 }
 
 // (stored depth, 1 if it occludes) of sample s.
@@ -604,10 +614,8 @@ fn holder_depth(h: u32, d: vec4<f32>) -> f32 {
 // The part of emitter-domain area an edge between block points a, b (sample coordinates) with
 // stored depths da, db hides or reveals.
 fn edge_term(px: Pixel, l: Level, a: vec2<f32>, da: f32, b: vec2<f32>, db: f32) -> f32 {
-    let qa = unproject(px, (a + vec2<f32>(0.5)) * l.scale, da);
-    let qb = unproject(px, (b + vec2<f32>(0.5)) * l.scale, db);
-    let la = emitter_coords(px, qa);
-    let lb = emitter_coords(px, qb);
+    let la = emitter_at(px, (a + vec2<f32>(0.5)) * l.scale, da);
+    let lb = emitter_at(px, (b + vec2<f32>(0.5)) * l.scale, db);
     if (px.flip > 0.0) {
         return edge_area(px.disk, la, lb);
     }
@@ -667,8 +675,8 @@ fn uniform_samples(px: Pixel, l: Level, lo: vec2<i32>, hi: vec2<i32>) -> bool {
     // The receiver's plane over the samples rises at most |g| per texel, out to `plane_reach`.
     let a0 = (vec2<f32>(lo) + vec2<f32>(0.5)) * l.scale - px.st;
     let a1 = (vec2<f32>(hi) + vec2<f32>(0.5)) * l.scale - px.st;
-    let far = length(max(abs(a0), abs(a1)));
-    let e = length(px.g) * min(far, ssm.extra.y);
+    let far = min(max(abs(a0), abs(a1)), vec2<f32>(ssm.extra.y));
+    let e = dot(abs(px.g), far);
     let low = px.z - e + l.slack;
     let high = px.z + e + l.slack;
     return nearest <= low || farthest > high;
@@ -740,8 +748,8 @@ struct Setup {
     lod: u32,
     other: u32,
     w: f32,
-    // The penumbra's width on screen (pixels; Eqs. 4, 5).
-    s_scr: f32,
+    // The occluders' distance along the view's axis (for the penumbra's size).
+    z_occ: f32,
     // The part of the emitter above the receiver's tangent plane.
     horizon: f32,
 };
@@ -777,7 +785,6 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.p = s.p;
     px.n = s.n;
     px.view = mp.layer;
-    px.inv = ssm.inv[px.view];
     px.st = mp.uvz.xy * map_params.bias.z;
     px.z = mp.uvz.z;
     px.g = receiver_plane_gradient(mp, s.p, s.n);
@@ -785,6 +792,10 @@ fn setup(pixel: vec2<u32>) -> Setup {
     let view = shadow_views[px.view];
     px.zd = shadow_distance(view, px.z);
     set_emitter(&px);
+    let inv = ssm.inv[px.view];
+    px.rt = emitter_row(inv, px.p, px.t);
+    px.rb = emitter_row(inv, px.p, px.b);
+    px.rm = emitter_row(inv, px.p, px.m);
     if (!px.hard) {
         out.horizon = horizon(px);
     }
@@ -834,13 +845,8 @@ fn setup(pixel: vec2<u32>) -> Setup {
     let reach = half + margin;
     let cb = hsm_bounds(px.view, px.st - vec2<f32>(reach), px.st + vec2<f32>(reach), 1.0);
     let rise = px.g1 * (reach + 0.5 * f32(1u << max(lod, other)));
-    // The emitter's orientation on the map: three points between the light and the receiver.
-    let mid = 0.5 * (px.z + 1.0);
-    let c0 = emitter_coords(px, unproject(px, px.st, mid));
-    let c1 = emitter_coords(px, unproject(px, px.st + vec2<f32>(1.0, 0.0), mid));
-    let c2 = emitter_coords(px, unproject(px, px.st + vec2<f32>(0.0, 1.0), mid));
-    px.flip = select(-1.0, 1.0, cross2(c1 - c0, c2 - c0) >= 0.0);
     out.px = px;
+    out.z_occ = z_occ;
     out.lod = lod;
     out.other = other;
     out.w = w;
@@ -851,18 +857,32 @@ fn setup(pixel: vec2<u32>) -> Setup {
     } else {
         out.kind = PENUMBRA;
     }
-    // Eq. 4: the penumbra's width in the world (the emitter's diameter for w_l), Eq. 5: on screen.
-    let r = emitter_radius();
-    var s_obj = 2.0 * r * max(px.zd - z_occ, 0.0);
-    if (view.eye.w < 0.5) {
-        s_obj = s_obj / max(z_occ, 1.0e-6);
-    }
-    let across = basis_u(normalize(s.p - camera.position.xyz));
-    let a = camera.view_proj * vec4<f32>(s.p, 1.0);
-    let c = camera.view_proj * vec4<f32>(s.p + across * s_obj, 1.0);
-    let shift = (c.xy / c.w - a.xy / a.w) * 0.5 * camera.size.xy;
-    out.s_scr = length(shift) * abs(dot(s.n, normalize(camera.position.xyz - s.p)));
     return out;
+}
+
+// The emitter's orientation on the map: three points between the light and the receiver.
+fn orientation(px: Pixel) -> f32 {
+    let mid = 0.5 * (px.z + 1.0);
+    let c0 = emitter_at(px, px.st, mid);
+    let c1 = emitter_at(px, px.st + vec2<f32>(1.0, 0.0), mid);
+    let c2 = emitter_at(px, px.st + vec2<f32>(0.0, 1.0), mid);
+    return select(-1.0, 1.0, cross2(c1 - c0, c2 - c0) >= 0.0);
+}
+
+// The penumbra's width on screen in pixels: Eq. 4 in the world (the emitter's diameter for w_l), Eq. 5
+// projected at the receiver.
+fn screen_penumbra(s: Setup) -> f32 {
+    let px = s.px;
+    let r = emitter_radius();
+    var s_obj = 2.0 * r * max(px.zd - s.z_occ, 0.0);
+    if (shadow_views[px.view].eye.w < 0.5) {
+        s_obj = s_obj / max(s.z_occ, 1.0e-6);
+    }
+    let across = basis_u(normalize(px.p - camera.position.xyz));
+    let a = camera.view_proj * vec4<f32>(px.p, 1.0);
+    let c = camera.view_proj * vec4<f32>(px.p + across * s_obj, 1.0);
+    let shift = (c.xy / c.w - a.xy / a.w) * 0.5 * camera.size.xy;
+    return length(shift) * abs(dot(px.n, normalize(camera.position.xyz - px.p)));
 }
 
 fn pixel_index(pixel: vec2<u32>) -> u32 {
@@ -968,7 +988,7 @@ fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
         // Eq. 6 with pattern = h² / rank: the rank-1 pixel of every tile always, the others while
         // the penumbra is narrow enough on screen; always next to a discontinuity.
         let pattern = f32(h * h) / f32(rank);
-        selected = rank == 1u || !(s.s_scr >= ssm.adapt.z * sqrt(pattern)) || near_discontinuity(id.xy);
+        selected = rank == 1u || !(screen_penumbra(s) >= ssm.adapt.z * sqrt(pattern)) || near_discontinuity(id.xy);
     }
     if (selected) {
         vbuf[i] = vec2<f32>(0.0, 1.0);
@@ -979,15 +999,12 @@ fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-@compute @workgroup_size(64)
-fn visibility(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= atomicLoad(&work.count)) {
-        return;
-    }
-    let i = list[id.x];
+// Pixel `i` of the list.
+fn listed(i: u32) {
     let width = u32(camera.size.x);
     let pixel = vec2<u32>(i % width, i / width);
-    let s = setup(pixel);
+    var s = setup(pixel);
+    s.px.flip = orientation(s.px);
     if (ssm.screen.w == 2.0) {
         // Analysis: the continuous level used, an eighth per level.
         vbuf[i] = vec2<f32>(min((f32(s.lod) + s.w * (f32(s.other) - f32(s.lod))) / 8.0, 1.0), 1.0);
@@ -1005,4 +1022,15 @@ fn visibility(@builtin(global_invocation_id) id: vec3<u32>) {
     // The receiver's horizon and the occluders' contour, combined by the minimum (exact when one
     // hides a part of the emitter the other does too).
     vbuf[i] = vec2<f32>(min(v, s.horizon), 1.0);
+}
+
+// One invocation per listed pixel (an indirect dispatch), or a grid-stride loop over the list where
+// a direct dispatch of fewer invocations is cheaper (CPU adapters).
+@compute @workgroup_size(64)
+fn visibility(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let count = atomicLoad(&work.count);
+    let stride = groups.x * 64u;
+    for (var k = id.x; k < count; k = k + stride) {
+        listed(list[k]);
+    }
 }

@@ -421,20 +421,50 @@ impl Selected {
         }
     }
 
-    /// Checks that every chosen light can take the technique.
-    pub fn check_supported(&self, setup: &Setup) -> Result<()> {
+    /// The chosen lights the technique cannot shadow (a rect light for `cascaded`): the renderer gives
+    /// them `hard` instead ([`renderer_for`]), the reports list them as not applicable.
+    pub fn unsupported(&self, setup: &Setup) -> Result<Vec<LightId>> {
+        let mut out = Vec::new();
         for id in &setup.lights {
             let l = &setup.scene.lights[id.index()];
             let spec = self.spec_for(*id).with_context(|| format!("auto chose nothing for light '{}'", l.name))?;
-            anyhow::ensure!(
-                spec.info.supports(l),
-                "technique '{}' does not support {} light '{}'",
-                spec.spec,
-                l.type_name(),
-                l.name
-            );
+            if !spec.info.supports(l) {
+                out.push(*id);
+            }
         }
-        Ok(())
+        Ok(out)
+    }
+
+    /// Drops the techniques that no chosen light supports and warns about lights that fall back to
+    /// `hard`, so that one technique that does not fit a light does not abort a comparison.
+    pub fn keep_applicable(specs: Vec<Selected>, setup: &Setup) -> Result<Vec<Selected>> {
+        let mut kept = Vec::with_capacity(specs.len());
+        for spec in specs {
+            let unsupported = spec.unsupported(setup)?;
+            let names = |ids: &[LightId]| {
+                ids.iter()
+                    .map(|id| {
+                        let l = &setup.scene.lights[id.index()];
+                        format!("{} light '{}'", l.type_name(), l.name)
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            if unsupported.len() == setup.lights.len() {
+                eprintln!("warning: '{}' supports none of the lights ({}): skipped", spec.label(), names(&unsupported));
+                continue;
+            }
+            if !unsupported.is_empty() {
+                eprintln!(
+                    "warning: '{}' does not support {}: shadowed by `hard` there and left out of its figures",
+                    spec.label(),
+                    names(&unsupported)
+                );
+            }
+            kept.push(spec);
+        }
+        anyhow::ensure!(!kept.is_empty(), "no technique applies to the chosen lights");
+        Ok(kept)
     }
 }
 
@@ -452,7 +482,12 @@ pub fn renderer_for(gpu: &shadowlab::Gpu, setup: &Setup, selected: &Selected) ->
         if setup.lights.contains(&id) {
             let spec =
                 selected.spec_for(id).with_context(|| format!("auto chose nothing for light '{}'", light.name))?;
-            r.set_technique(id, spec).with_context(|| format!("light '{}'", light.name))?;
+            if spec.info.supports(light) {
+                r.set_technique(id, spec).with_context(|| format!("light '{}'", light.name))?;
+            } else {
+                // Not applicable to this light (`Selected::unsupported`): the baseline stands in.
+                r.set_technique(id, &shadowlab::TechniqueSpec::parse("hard", &[])?)?;
+            }
         } else {
             r.set_technique(id, &none)?;
         }

@@ -176,6 +176,45 @@ fn compare_runs_on_room_with_configured_techniques() {
     std::fs::remove_dir_all(out_dir).ok();
 }
 
+/// A technique that does not take some lights (`cascaded`: directional and spot only) does not abort
+/// the comparison: those lights are shadowed by `hard` and marked, the technique's figures leave them
+/// out, and a technique that takes none of the lights is skipped with a warning.
+#[test]
+fn compare_reports_the_rest_when_a_technique_does_not_fit_a_light() {
+    let out_dir = temp("compare-unsupported");
+    let out = out_dir.to_str().unwrap();
+    let args = ["--size", "32x32", "--samples", "4", "--frames", "1", "--warmup", "0", "--set", "map_size=256"];
+    let run = |scene: &str| {
+        let mut all = vec!["compare", "--scene", scene, "--technique", "cascaded", "--technique", "hard", "--out", out];
+        all.extend(args);
+        shadowlab(&all)
+    };
+    let room = run("room");
+    ok(&room);
+    let stderr = String::from_utf8_lossy(&room.stderr);
+    assert!(stderr.contains("'cascaded' does not support point light 'ceiling lamp'"), "{stderr}");
+    let m = json(&out_dir.join("metrics.json"));
+    let cascaded = &m["techniques"][0];
+    assert_eq!(cascaded["spec"], "cascaded");
+    let marked: Vec<&str> = cascaded["lights"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|l| l["not_applicable"] == true)
+        .map(|l| l["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(marked, ["ceiling lamp", "accent"], "the point lights fall back to hard");
+    assert!(m["techniques"][1]["lights"].as_array().unwrap().iter().all(|l| l.get("not_applicable").is_none()));
+    // `penumbra` has one rect light: `cascaded` is skipped, `hard` reported.
+    let penumbra = run("penumbra");
+    ok(&penumbra);
+    assert!(String::from_utf8_lossy(&penumbra.stderr).contains("'cascaded' supports none of the lights"));
+    let m = json(&out_dir.join("metrics.json"));
+    let specs: Vec<&str> = m["techniques"].as_array().unwrap().iter().map(|t| t["spec"].as_str().unwrap()).collect();
+    assert_eq!(specs, ["hard"]);
+    std::fs::remove_dir_all(out_dir).ok();
+}
+
 #[test]
 fn listings_are_json() {
     let out = shadowlab(&["scenes", "--json"]);
@@ -292,5 +331,18 @@ fn bad_input_gives_clear_errors() {
     fails_with(&["render", "--size", "0x10", "--out", "x.png"], "must be between 1x1 and 8192x8192");
     fails_with(&["render", "--emitter-scale", "NaN", "--out", "x.png"], "emitter-scale");
     fails_with(&["reference", "--scene", "terrain:sun=90", "--out", o], "'sun' = '90': out of range");
+    // Random bytes named .glb: said to be no glTF, not a JSON parser's complaint.
+    std::fs::create_dir_all(&out).unwrap();
+    let glb = out.join("noise.glb");
+    std::fs::write(&glb, (0..200u32).map(|i| (i * 97 % 251) as u8).collect::<Vec<u8>>()).unwrap();
+    fails_with(&["render", "--scene", glb.to_str().unwrap(), "--out", "x.png"], "not a glTF or GLB file");
+    // `--out` of `render` is checked before rendering: a directory, or not a PNG name.
+    fails_with(&["render", "--out", o], "is a directory: name the PNG file to write");
+    fails_with(&["render", "--out", "x.jpg"], "name a file ending in .png");
+    // An unknown path is refused before the reference is traced (which reports itself on stderr).
+    let args = ["compare", "--scene", "room", "--size", "64x64", "--path", "nowhere", "--out", o];
+    fails_with(&args, "'nowhere' is neither a path (the scene has none)");
+    let stderr = String::from_utf8_lossy(&shadowlab(&args).stderr).into_owned();
+    assert!(!stderr.contains("reference:"), "checked after tracing: {stderr}");
     std::fs::remove_dir_all(out).ok();
 }

@@ -110,7 +110,7 @@ impl Light {
                 format!("radius {radius} m")
             }
             LightKind::Directional { angular_radius, .. } => {
-                format!("angular radius {}°", angular_radius.to_degrees())
+                format!("angular radius {}°", degrees(angular_radius))
             }
             LightKind::Rect { width, height, .. } => format!("{width} × {height} m"),
         }
@@ -275,20 +275,20 @@ impl Light {
                 check_radius(radius)?;
                 unit("direction", direction)?;
                 if !(outer_angle.is_finite() && outer_angle > 0.0 && outer_angle <= MAX_SPOT_HALF_ANGLE) {
-                    return Err(format!("outer cone half-angle {}° must be in (0°, 90°]", outer_angle.to_degrees()));
+                    return Err(format!("outer cone half-angle {}° must be in (0°, 90°]", degrees(outer_angle)));
                 }
                 if !(inner_angle.is_finite() && inner_angle >= 0.0 && inner_angle <= outer_angle) {
                     return Err(format!(
                         "inner cone half-angle {}° must be in [0°, outer {}°]",
-                        inner_angle.to_degrees(),
-                        outer_angle.to_degrees()
+                        degrees(inner_angle),
+                        degrees(outer_angle)
                     ));
                 }
             }
             LightKind::Directional { direction, angular_radius } => {
                 unit("direction", direction)?;
                 if !(angular_radius.is_finite() && (0.0..=MAX_ANGULAR_RADIUS).contains(&angular_radius)) {
-                    return Err(format!("angular radius {}° must be in [0°, 45°]", angular_radius.to_degrees()));
+                    return Err(format!("angular radius {}° must be in [0°, 45°]", degrees(angular_radius)));
                 }
             }
             LightKind::Rect { direction, tangent, width, height, .. } => {
@@ -308,6 +308,12 @@ impl Light {
         }
         Ok(())
     }
+}
+
+/// An angle in degrees for messages, rounded to 1e-4° so that a 120° cone given in degrees and
+/// stored in radians (f32) reads 120°, not 120.00001°.
+pub fn degrees(radians: f32) -> f64 {
+    (f64::from(radians).to_degrees() * 1e4).round() / 1e4
 }
 
 #[cfg(test)]
@@ -364,6 +370,16 @@ mod tests {
             radius: 0.0,
         };
         assert!(s.check().unwrap_err().contains("outer cone"));
+        // Degrees as given: 120°, not the f32 round trip's 120.00001°.
+        s.kind = LightKind::Spot {
+            position: Vec3::ZERO,
+            direction: -Vec3::Y,
+            inner_angle: 0.1,
+            outer_angle: 120f32.to_radians(),
+            radius: 0.0,
+        };
+        let message = s.check().unwrap_err();
+        assert!(message.contains("half-angle 120° must be"), "{message}");
         let mut s = spot();
         s.intensity = f32::NAN;
         assert!(s.check().unwrap_err().contains("intensity"));

@@ -31,9 +31,7 @@ pub struct Args {
 pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let setup = args.scene.load()?;
     let specs = args.techniques.selected(&setup, super::compare::DEFAULT_TECHNIQUES)?;
-    for s in &specs {
-        s.check_supported(&setup)?;
-    }
+    let specs = Selected::keep_applicable(specs, &setup)?;
     let auto = specs.iter().find_map(Selected::auto);
     let gpu = open_gpu(global)?;
     let (frames, warmup) = (args.frames as usize, args.warmup as usize);

@@ -67,9 +67,9 @@ struct LightRef<'a> {
 pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let setup = args.scene.load()?;
     let specs = args.techniques.selected(&setup, DEFAULT_TECHNIQUES)?;
-    for s in &specs {
-        s.check_supported(&setup)?;
-    }
+    let specs = Selected::keep_applicable(specs, &setup)?;
+    // Names are checked before the reference is traced.
+    let path = args.path.as_deref().map(|p| resolve_path(&setup, p, args.path_frames)).transpose()?;
     // `auto`: which light got what, and why (one plan however often `auto` is listed).
     let auto = specs.iter().find_map(Selected::auto);
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
@@ -154,10 +154,14 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         let mut pooled = ErrorStats::default();
         let mut light_entries = Vec::new();
         let mut light_images = Vec::new();
+        let unsupported = spec.unsupported(&setup)?;
         for r in &refs {
             let v = m.renderer.read_visibility(r.id)?.context("light without a visibility layer")?;
             let stats = ErrorStats::compare(&v, &r.values);
-            pooled.merge(&stats);
+            let applicable = !unsupported.contains(&r.id);
+            if applicable {
+                pooled.merge(&stats);
+            }
             let s = stats.summary();
             let mut entry = json!({
                 "index": r.id.0, "name": r.name, "rmse": s.rmse, "mae": s.mae, "max_abs": s.max_abs,
@@ -166,6 +170,11 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             });
             if let (Some(_), Some(chosen)) = (spec.auto(), spec.spec_for(r.id)) {
                 entry["spec"] = json!(chosen.spec);
+            }
+            if !applicable {
+                // The technique does not take this light: its figures are `hard`'s, outside the pool.
+                entry["not_applicable"] = json!(true);
+                entry["substitute"] = json!("hard");
             }
             light_entries.push(entry);
             // Shown where the reference is relevant; elsewhere the technique's value means nothing.
@@ -211,8 +220,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
 
     // 4. Temporal stability along a path.
     let mut path_json = Value::Null;
-    if let Some(path_spec) = &args.path {
-        let path = resolve_path(&setup, path_spec, args.path_frames)?;
+    if let Some(path) = &path {
         let views = path.views();
         let flickers = measure_flicker(&gpu, &setup, &specs, &views, &settings)?;
         for (e, f) in entries.iter_mut().zip(&flickers) {
@@ -518,13 +526,12 @@ fn resolve_path(setup: &Setup, spec: &str, frames: Option<u32>) -> Result<shadow
         .split(',')
         .map(|n| {
             setup.scene.view(n.trim()).cloned().with_context(|| {
-                let paths: Vec<&str> = setup.scene.paths.iter().map(|p| p.name.as_str()).collect();
-                let views: Vec<&str> = setup.scene.views.iter().map(|v| v.name.as_str()).collect();
-                format!(
-                    "--path '{spec}': '{n}' is neither a path ({}) nor a view ({})",
-                    paths.join(", "),
-                    views.join(", ")
-                )
+                let list = |names: Vec<&str>| {
+                    if names.is_empty() { "the scene has none".to_owned() } else { names.join(", ") }
+                };
+                let paths = list(setup.scene.paths.iter().map(|p| p.name.as_str()).collect());
+                let views = list(setup.scene.views.iter().map(|v| v.name.as_str()).collect());
+                format!("--path '{spec}': '{n}' is neither a path ({paths}) nor a view ({views})")
             })
         })
         .collect::<Result<Vec<_>>>()?;

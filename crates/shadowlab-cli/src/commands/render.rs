@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use shadowlab_reference::images::write_rgb_png;
 
 use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, renderer_for};
@@ -26,6 +26,17 @@ pub struct Args {
 }
 
 pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
+    // Checked before anything is rendered: `--out` names the PNG file to write.
+    if args.out.is_dir() {
+        bail!(
+            "--out {} is a directory: name the PNG file to write (e.g. {}/render.png)",
+            args.out.display(),
+            args.out.display()
+        );
+    }
+    if !args.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        bail!("--out {}: render writes a PNG image; name a file ending in .png", args.out.display());
+    }
     let setup = args.scene.load()?;
     let specs = args.techniques.selected(&setup, &["hard"])?;
     let spec = specs.first().context("no technique")?;

@@ -31,6 +31,15 @@ pub fn load(path: &Path) -> Result<Loaded> {
 /// Parses glTF or GLB bytes; `path` names the file in errors and resolves external buffers.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
     let file = || Location::file(path);
+    // Neither a GLB (it starts with the magic bytes "glTF") nor JSON (it starts with '{' after
+    // whitespace): say what the file is not, rather than the JSON parser's first complaint.
+    let first = bytes.iter().find(|b| !b.is_ascii_whitespace()).copied();
+    if !bytes.starts_with(b"glTF") && first != Some(b'{') {
+        return Err(SceneError::parse(
+            file(),
+            "not a glTF or GLB file (a .glb starts with the bytes 'glTF', a .gltf is a JSON object)",
+        ));
+    }
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| SceneError::parse(file(), gltf_message(e)))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())

@@ -9,6 +9,10 @@
 
 use std::path::{Path, PathBuf};
 
+/// Words of the warning for an unreadable `.mtl`: a scene file that assigns its own material to the
+/// object drops it (the file's materials are not used then).
+pub(crate) const MISSING_LIBRARY: &str = "material library";
+
 use glam::{Vec2, Vec3};
 use rustc_hash::FxHashMap;
 
@@ -137,7 +141,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
                 Err(e) => warnings.push(format!("{e} (material library ignored)")),
             },
             Err(e) => warnings.push(format!(
-                "{}: material library {} cannot be read ({e}); default materials used",
+                "{}: {MISSING_LIBRARY} {} cannot be read ({e}); default materials used",
                 Location::line(path, *line),
                 lib.display()
             )),

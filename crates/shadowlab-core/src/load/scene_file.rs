@@ -316,7 +316,10 @@ impl Context<'_> {
                         }
                         let loaded = super::load_file(&full)
                             .map_err(|e| SceneError::invalid(at.clone(), format!("in '{file}': {e}")))?;
-                        self.warnings.extend(loaded.warnings);
+                        // With a material of the scene file's own, the file's materials (and what
+                        // went wrong reading them) do not matter.
+                        let unused = |w: &String| material.is_some() && w.contains(super::obj::MISSING_LIBRARY);
+                        self.warnings.extend(loaded.warnings.into_iter().filter(|w| !unused(w)));
                         self.file_cache.insert(full.clone(), loaded.scene.clone());
                         loaded.scene
                     }
@@ -571,6 +574,28 @@ name = "swing"
 views = ["top", "side"]
 frames = 12
 "#;
+
+    /// An OBJ whose `.mtl` is missing warns that defaults are used, unless the scene file gives the
+    /// object a material of its own (then the OBJ's materials are not used at all).
+    #[test]
+    fn a_missing_mtl_matters_only_without_a_material_of_the_scene_file() {
+        let dir = std::env::temp_dir().join(format!("shadowlab-mtl-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("tri.obj"), "mtllib nowhere.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+            .unwrap();
+        let scene = |material: &str| {
+            format!(
+                "[[material]]\nname = \"grey\"\nbase_color = [0.5, 0.5, 0.5]\n\n[[object]]\nfile = \"tri.obj\"\n{material}\n"
+            )
+        };
+        let warned = |text: String| {
+            let loaded = parse(&text, &dir.join("scene.toml")).unwrap();
+            loaded.warnings.iter().any(|w| w.contains("nowhere.mtl"))
+        };
+        assert!(warned(scene("")), "the file's own materials are used: say they are defaults");
+        assert!(!warned(scene("material = \"grey\"")), "the scene file's material replaces them");
+        std::fs::remove_dir_all(dir).ok();
+    }
 
     #[test]
     fn good_file() {

@@ -25,6 +25,9 @@ enum Command {
     Scenes(commands::scenes::Args),
     /// List the shadow techniques: ids, light types, parameters.
     Techniques(commands::techniques::Args),
+    /// Load a scene and summarise it without a GPU: triangles, mesh topology (open, non-manifold),
+    /// lights, views, bounds, warnings.
+    Inspect(commands::inspect::Args),
     /// Render one lit image with a technique.
     Render(commands::render::Args),
     /// Ray-trace the reference visibility of every light on the CPU (no GPU needed).
@@ -48,6 +51,7 @@ fn main() {
     let result = match cli.command {
         Command::Scenes(a) => commands::scenes::run(&cli.global, a),
         Command::Techniques(a) => commands::techniques::run(&cli.global, a),
+        Command::Inspect(a) => commands::inspect::run(&cli.global, a),
         Command::Render(a) => commands::render::run(&cli.global, a),
         Command::Reference(a) => commands::reference::run(&cli.global, a),
         Command::Compare(a) => commands::compare::run(&cli.global, a),

@@ -215,6 +215,31 @@ fn compare_reports_the_rest_when_a_technique_does_not_fit_a_light() {
     std::fs::remove_dir_all(out_dir).ok();
 }
 
+/// `inspect` loads a scene and summarises it without a GPU: the topology of each mesh (what shadow
+/// volumes must cope with), lights, views and the loader's warnings.
+#[test]
+fn inspect_summarises_a_scene_without_a_gpu() {
+    let out = shadowlab(&["inspect", "--scene", "room", "--json"]);
+    ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["triangles"].as_u64().unwrap() > 1000);
+    assert_eq!(v["lights"].as_array().unwrap().len(), 4);
+    assert!(v["meshes"].as_array().unwrap().iter().all(|m| m["topology"] == "closed"), "room is built of solids");
+    // One triangle is an open mesh with three boundary edges; the missing .mtl is a warning.
+    let dir = temp("inspect");
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("tri.obj");
+    std::fs::write(&obj, "mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let out = shadowlab(&["inspect", "--scene", obj.to_str().unwrap(), "--json"]);
+    ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["meshes"][0]["topology"], "open");
+    assert_eq!(v["meshes"][0]["boundary_edges"], 3);
+    assert!(v["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("gone.mtl")));
+    fails_with(&["inspect", "--scene", dir.join("none.obj").to_str().unwrap()], "no such file");
+    std::fs::remove_dir_all(dir).ok();
+}
+
 #[test]
 fn listings_are_json() {
     let out = shadowlab(&["scenes", "--json"]);

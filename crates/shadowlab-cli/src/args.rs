@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use shadowlab_core::{LightId, Scene, View, load_scene};
+use shadowlab_core::{LightId, Scene, View};
 
 /// Options every command accepts.
 #[derive(clap::Args, Debug, Clone)]
@@ -32,6 +32,10 @@ pub struct SceneArgs {
     /// Scale every light's emitter size; 0 makes all lights hard (points and single directions).
     #[arg(long, default_value_t = 1.0)]
     pub emitter_scale: f32,
+    /// Emissive planar rectangles of a model (an OBJ's `Ke`, a glTF's emissive factor) become rect
+    /// lights (the Cornell box's ceiling panel) instead of a default sun.
+    #[arg(long)]
+    pub emissive_lights: bool,
 }
 
 /// The scene, the chosen view and the chosen lights, ready to use.
@@ -48,7 +52,9 @@ impl SceneArgs {
         if !(self.emitter_scale.is_finite() && (0.0..=100.0).contains(&self.emitter_scale)) {
             bail!("--emitter-scale {} must be in [0, 100]", self.emitter_scale);
         }
-        let loaded = load_scene(&self.scene).with_context(|| format!("loading scene '{}'", self.scene))?;
+        let options = shadowlab_core::LoadOptions { emissive_lights: self.emissive_lights };
+        let loaded = shadowlab_core::load_scene_with(&self.scene, options)
+            .with_context(|| format!("loading scene '{}'", self.scene))?;
         for w in &loaded.warnings {
             eprintln!("warning: {w}");
         }

@@ -229,3 +229,38 @@ fn documented_example_is_valid() {
     assert!(s.instances.iter().any(|i| i.name == "bunny"));
     assert_eq!(s.path("swing").unwrap().views().len(), 30);
 }
+
+/// The Cornell box lit by its own ceiling panel (`Ke 17 12 4` in the MTL) instead of a default sun,
+/// by the loader option and by a scene file's `emissive_lights = true`.
+#[test]
+fn the_cornell_panel_becomes_its_light() {
+    let obj = assets().join("cornell-box/CornellBox-Original.obj");
+    let options = shadowlab_core::LoadOptions { emissive_lights: true };
+    let lit = shadowlab_core::load_scene_with(obj.to_str().unwrap(), options).unwrap();
+    let check = |scene: &shadowlab_core::Scene| {
+        assert_eq!(scene.lights.len(), 1, "the panel, and no default sun");
+        match scene.lights[0].kind {
+            LightKind::Rect { direction, width, height, .. } => {
+                assert!(direction.y < -0.999, "the panel faces down: {direction}");
+                let (a, b) = (width.max(height), width.min(height));
+                // The MTL's panel: 0.47 × 0.38 m.
+                assert!((a - 0.47).abs() < 1e-4 && (b - 0.38).abs() < 1e-4, "{width} × {height}");
+            }
+            ref k => panic!("{k:?}"),
+        }
+        let panel = scene.instances.iter().find(|i| i.name.ends_with("light")).expect("the panel instance");
+        assert!(!panel.casts_shadows, "the panel is the light, not an occluder of it");
+    };
+    check(&lit.scene);
+    // Without the option: the default sun.
+    let plain = load_scene(obj.to_str().unwrap()).unwrap();
+    assert_eq!(plain.scene.lights[0].type_name(), "directional");
+    // A scene file asks for it with a key.
+    let dir = std::env::temp_dir().join(format!("shadowlab-cornell-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let toml = dir.join("cornell.toml");
+    std::fs::write(&toml, format!("emissive_lights = true\n\n[[object]]\nfile = {:?}\n", obj.to_str().unwrap()))
+        .unwrap();
+    check(&load_scene(toml.to_str().unwrap()).unwrap().scene);
+    std::fs::remove_dir_all(dir).ok();
+}

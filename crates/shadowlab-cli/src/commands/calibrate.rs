@@ -49,6 +49,9 @@ pub struct Args {
     /// Scale every light's emitter size; 0 makes all lights hard.
     #[arg(long, default_value_t = 1.0)]
     emitter_scale: f32,
+    /// Emissive planar rectangles of a model become rect lights.
+    #[arg(long)]
+    emissive_lights: bool,
     /// A candidate technique spec (repeatable; default: hard, pcf, pcss, smoothies, volumes,
     /// lightmaps:samples=16, lightmaps, sampled:samples=16,mode=array, cascaded:splits=4). A light
     /// skips the candidates it does not support.
@@ -216,6 +219,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         size: args.size,
         lights: args.lights.clone(),
         emitter_scale: args.emitter_scale,
+        emissive_lights: args.emissive_lights,
     };
     let mut setup = scene_args.load()?;
     let views: Vec<shadowlab_core::View> = if args.views.is_empty() {

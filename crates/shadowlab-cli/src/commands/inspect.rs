@@ -4,8 +4,8 @@
 
 use anyhow::{Context, Result};
 use serde_json::json;
-use shadowlab_core::load_scene;
 use shadowlab_core::topology::Topology;
+use shadowlab_core::{LoadOptions, load_scene_with};
 
 use crate::args::GlobalArgs;
 
@@ -17,10 +17,14 @@ pub struct Args {
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
+    /// Emissive planar rectangles become rect lights (as `--emissive-lights` of the other commands).
+    #[arg(long)]
+    emissive_lights: bool,
 }
 
 pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
-    let loaded = load_scene(&args.scene).with_context(|| format!("loading scene '{}'", args.scene))?;
+    let options = LoadOptions { emissive_lights: args.emissive_lights };
+    let loaded = load_scene_with(&args.scene, options).with_context(|| format!("loading scene '{}'", args.scene))?;
     let scene = &loaded.scene;
     let stats = scene.stats();
     let bounds = scene.bounds();

@@ -106,6 +106,9 @@ pub struct Args {
     /// Scale every light's emitter size; 0 makes all lights hard.
     #[arg(long, default_value_t = 1.0)]
     emitter_scale: f32,
+    /// Emissive planar rectangles of a model become rect lights.
+    #[arg(long)]
+    emissive_lights: bool,
     /// Keep frames to a target time: MS, or `auto` (2 × the median time of a frame with `hard` on
     /// every light, measured first). Cache fills are spread over frames; a light shows its last
     /// complete state until the new one is complete. `--preference` scales it: quality ×2,
@@ -190,6 +193,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         size: args.size,
         lights: Vec::new(),
         emitter_scale: args.emitter_scale,
+        emissive_lights: args.emissive_lights,
     };
     let setup = scene_args.load()?;
     // `--preference` scales the `auto` budget with `--technique auto` and the target with

@@ -4,6 +4,7 @@
 //! never returns a partial scene and never panics. Things worth knowing that are not errors (a
 //! missing MTL file, an orthographic camera skipped) come back as warnings for the caller to show.
 
+pub mod emissive;
 pub mod gltf;
 pub mod obj;
 pub mod scene_file;
@@ -25,15 +26,32 @@ pub struct Loaded {
     pub warnings: Vec<String>,
 }
 
+/// How files become scenes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Emissive planar rectangles become rect lights ([`emissive::lights_from_emissive`]): the
+    /// Cornell box lit by its ceiling panel. A scene file asks for it with `emissive_lights = true`.
+    pub emissive_lights: bool,
+}
+
 /// Loads `spec`: a built-in scene name with optional options (`terrain:sun=0.27`), or a path to a
 /// scene file. The result is validated; a file without views or lights gets a default of each
 /// (with a warning), so that every command can run on a bare model. The scene comes recentred
 /// ([`Scene::recentre`]): far from the world's origin its coordinates are local ones, and
 /// `scene.origin` says where they are.
 pub fn load_scene(spec: &str) -> Result<Loaded> {
+    load_scene_with(spec, LoadOptions::default())
+}
+
+/// [`load_scene`] with `options` (for files; built-in scenes ignore them).
+pub fn load_scene_with(spec: &str, options: LoadOptions) -> Result<Loaded> {
     let path = Path::new(spec);
     if path.exists() || spec.contains(['/', '\\']) || has_scene_extension(path) {
         let mut loaded = load_file(path)?;
+        if options.emissive_lights {
+            let warnings = emissive::lights_from_emissive(&mut loaded.scene);
+            loaded.warnings.extend(warnings);
+        }
         add_defaults(&mut loaded);
         loaded.scene.validate().map_err(|e| e.in_file(path))?;
         loaded.scene.recentre();

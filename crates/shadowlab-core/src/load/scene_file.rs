@@ -24,6 +24,8 @@ struct File {
     /// A built-in scene to start from (`"penumbra"`, `"room:..."`).
     base: Option<String>,
     ambient: Option<[f32; 3]>,
+    /// Emissive planar rectangles become rect lights (`load::emissive`).
+    emissive_lights: Option<bool>,
     #[serde(default)]
     material: Vec<Spanned<MaterialDef>>,
     #[serde(default)]
@@ -148,7 +150,12 @@ pub fn parse(text: &str, path: &Path) -> Result<Loaded> {
     })?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut ctx = Context { text, path, dir, warnings: Vec::new(), file_cache: HashMap::new() };
-    let scene = ctx.build(file)?;
+    let emissive_lights = file.emissive_lights.unwrap_or(false);
+    let mut scene = ctx.build(file)?;
+    if emissive_lights {
+        let warnings = super::emissive::lights_from_emissive(&mut scene);
+        ctx.warnings.extend(warnings);
+    }
     Ok(Loaded { scene, warnings: ctx.warnings })
 }
 

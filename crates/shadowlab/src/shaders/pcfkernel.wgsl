@@ -20,8 +20,10 @@ fn kernel_radius_texels(mp: MapPoint) -> f32 {
 }
 
 // The average of the kernel's comparison taps around mp in texture layer `layer`, `radius` texels
-// wide; rotated per pixel (interleaved gradient noise) when the kernel asks for it.
-fn pcf_filter(mp: MapPoint, layer: u32, radius: f32, pixel: vec2<u32>) -> f32 {
+// wide; rotated per pixel (interleaved gradient noise) when the kernel asks for it. Each tap is
+// compared with the receiver's plane there (receiver-plane depth bias, `g` from
+// `receiver_plane_gradient`): a wide kernel compared with the centre's depth darkens lit slopes.
+fn pcf_filter(mp: MapPoint, layer: u32, radius: f32, pixel: vec2<u32>, g: vec2<f32>) -> f32 {
     var rot = mat2x2<f32>(1.0, 0.0, 0.0, 1.0);
     if (kernel.params.w > 0.5) {
         let a = 6.2831853 * interleaved_gradient_noise(vec2<f32>(pixel));
@@ -30,7 +32,8 @@ fn pcf_filter(mp: MapPoint, layer: u32, radius: f32, pixel: vec2<u32>) -> f32 {
     let n = max(u32(kernel.params.x), 1u);
     var sum = 0.0;
     for (var i = 0u; i < n; i = i + 1u) {
-        sum = sum + map_tap(mp, rot * kernel.taps[i].xy * radius, layer);
+        let o = rot * kernel.taps[i].xy * radius;
+        sum = sum + map_tap_z(mp, o, layer, mp.uvz.z + dot(g, o));
     }
     return sum / f32(n);
 }

@@ -13,7 +13,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcf_filter(mp, mp.layer, kernel_radius_texels(mp), id.xy);
+            v = pcf_filter(mp, mp.layer, kernel_radius_texels(mp), id.xy, receiver_plane_gradient(mp, s.p, s.n));
         }
     }
     textureStore(visibility_out, id.xy, vec4<f32>(v));

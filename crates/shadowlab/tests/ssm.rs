@@ -83,6 +83,13 @@ fn adaptive_sampling_with_an_infinite_threshold_is_the_full_computation() {
     println!("s_min = 4 against the full computation: max {worst:.4}, RMSE {error:.4}");
     assert!(worst > 0.0, "pixels were skipped");
     assert!(error < 0.02, "pull-push fills the skipped pixels smoothly: RMSE {error}");
+    // GPUs take the indirect dispatch of the list, CPU adapters (this machine) a direct one looping
+    // over it: the same pixels, the same values.
+    for dispatch in ["indirect", "direct"] {
+        let spec = format!("ssm:adaptive=false,dispatch={dispatch}");
+        let v = render(&gpu, &scene, &view, 96, &spec, &[LightId(0)]).visibility(LightId(0));
+        assert_eq!(differ(&v, &full), 0.0, "{dispatch}");
+    }
 }
 
 /// The continuous level λ grows with the light; where it crosses an integer the level used

@@ -139,6 +139,7 @@ mod tests {
         let l = &scene.lights[0];
         match l.kind {
             LightKind::Rect { position, direction, width, height, .. } => {
+                // Exact but for f32 round-off of sums of metre-sized coordinates (1e-5: ~100 ulps).
                 assert!((position - Vec3::new(0.2, 2.0, 0.1)).length() < 1e-5, "{position}");
                 assert!((direction - Vec3::NEG_Y).length() < 1e-5, "{direction}");
                 let (a, b) = (width.max(height), width.min(height));

@@ -97,6 +97,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ),
         ParamDef::choice("pattern", "4", &["2", "4", "8"], "width of the selection pattern"),
         ParamDef::choice(
+            "dispatch",
+            "auto",
+            &["auto", "indirect", "direct"],
+            "listed pixels: an indirect dispatch of their count, or a direct one looping over the list (auto: direct on CPU adapters)",
+        ),
+        ParamDef::choice(
             "show",
             "visibility",
             &SHOW,
@@ -278,7 +284,11 @@ fn create(
         screen: None,
         triangles: 0,
         reduced: 0,
-        indirect: shared.gpu.adapter.device_type != "cpu",
+        indirect: match params.choice("dispatch") {
+            "indirect" => true,
+            "direct" => false,
+            _ => shared.gpu.adapter.device_type != "cpu",
+        },
     }))
 }
 

@@ -130,11 +130,10 @@ struct Pixel {
     g1: f32,
     // Distance of the receiver along the view's axis.
     zd: f32,
-    // Kernel half-width (level-0 texels) and the continuous level λ (§5.1).
+    // Kernel half-width (level-0 texels).
     half: f32,
-    lambda: f32,
     // Back-projection onto the emitter's normalised domain: coords(q) = base + k / (m·(q − p)) ×
-    // (T·(q − p), B·(q − p)).
+    // (T·(q − p), B·(q − p)) (evaluated through `rt`, `rb`, `rm`).
     base: vec2<f32>,
     k: f32,
     m: vec3<f32>,
@@ -839,7 +838,6 @@ fn setup(pixel: vec2<u32>) -> Setup {
         half = min(half, 0.5 * ssm.limits.y);
     }
     px.half = half;
-    px.lambda = f32(lod);
     // Lit or umbra over the kernel grown by a texel of the coarser level used (its blocks).
     let margin = f32(1u << max(lod, other));
     let reach = half + margin;

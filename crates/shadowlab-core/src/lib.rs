@@ -14,11 +14,13 @@
 
 pub mod backprojection;
 pub mod bounds;
+pub mod bvh;
 pub mod camera;
 pub mod cascades;
 pub mod convex;
 pub mod error;
 pub mod light;
+pub mod lightmesh;
 pub mod lightspace;
 pub mod load;
 pub mod material;

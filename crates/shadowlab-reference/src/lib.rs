@@ -17,7 +17,7 @@
 //! assert!(v.values.iter().filter(|v| !v.is_nan()).all(|&v| (0.0..=1.0).contains(&v)));
 //! ```
 
-pub mod bvh;
+pub use shadowlab_core::bvh;
 pub mod images;
 pub mod metrics;
 pub mod surface;

@@ -30,18 +30,7 @@ use shadowlab_core::{Light, SurfaceBuffer};
 
 use crate::bvh::{PreparedRay, SceneBvh};
 
-/// Ray origin offset as a fraction of the scene diagonal (see the module docs).
-pub const EPSILON_SCALE: f32 = 1.0e-5;
-/// Ray origin offset in float steps of the position's largest coordinate (Wächter & Binder, Ray
-/// Tracing Gems ch. 6, offset by the magnitude of the position rather than a fixed length).
-pub const EPSILON_ULPS: f32 = 64.0;
-
-/// The shadow-ray offset at `p` in a scene of diagonal `scene_diagonal` (see the module docs).
-#[inline]
-pub fn ray_epsilon(p: Vec3, scene_diagonal: f32) -> f32 {
-    let magnitude = p.abs().max_element();
-    (EPSILON_SCALE * scene_diagonal.max(1e-6)).max(EPSILON_ULPS * f32::EPSILON * magnitude)
-}
+pub use shadowlab_core::bvh::{EPSILON_SCALE, EPSILON_ULPS, ray_epsilon};
 
 /// How the reference integrates area emitters.
 #[derive(Debug, Clone, Copy, PartialEq)]

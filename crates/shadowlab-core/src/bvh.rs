@@ -1,5 +1,9 @@
 //! A BVH over a scene's world-space triangles, with watertight ray/triangle tests.
 //!
+//! It lives in the core (not the reference crate) because two users trace rays: the ground truth
+//! and the static-light precomputation ([`crate::lightmesh`]), which the engine runs itself when a
+//! stored light mesh is missing or stale.
+//!
 //! The hierarchy is obvhs's compressed wide BVH (CWBVH, Ylitie et al. 2017), built in parallel with
 //! PLOC. The triangle test is our own watertight one (Woop, Benthin & Wald, "Watertight
 //! Ray/Triangle Intersection", JCGT 2(1), 2013): a shadow ray that hits an edge shared by two
@@ -7,10 +11,23 @@
 
 use std::time::Duration;
 
+use crate::{Instance, Scene};
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::Ray;
-use shadowlab_core::{Instance, Scene};
+
+/// Ray origin offset as a fraction of the scene diagonal (DESIGN.md §3: relative to the magnitude of p, so a translated scene has the same truth).
+pub const EPSILON_SCALE: f32 = 1.0e-5;
+/// Ray origin offset in float steps of the position's largest coordinate (Wächter & Binder, Ray
+/// Tracing Gems ch. 6, offset by the magnitude of the position rather than a fixed length).
+pub const EPSILON_ULPS: f32 = 64.0;
+
+/// The shadow-ray offset at `p` in a scene of diagonal `scene_diagonal` (DESIGN.md §3: relative to the magnitude of p, so a translated scene has the same truth).
+#[inline]
+pub fn ray_epsilon(p: Vec3, scene_diagonal: f32) -> f32 {
+    let magnitude = p.abs().max_element();
+    (EPSILON_SCALE * scene_diagonal.max(1e-6)).max(EPSILON_ULPS * f32::EPSILON * magnitude)
+}
 
 /// A world-space triangle and where it came from.
 #[derive(Debug, Clone, Copy)]
@@ -121,10 +138,15 @@ pub struct SceneBvh {
 impl SceneBvh {
     /// Flattens the selected instances to world space and builds the BVH (in parallel).
     pub fn build(scene: &Scene, selection: Selection) -> Self {
+        Self::build_filtered(scene, |inst| selection == Selection::All || inst.casts_shadows)
+    }
+
+    /// The instances `keep` accepts (the static casters of a light mesh, for instance).
+    pub fn build_filtered(scene: &Scene, keep: impl Fn(&Instance) -> bool) -> Self {
         let start = std::time::Instant::now();
         let mut triangles = Vec::new();
         for (i, inst) in scene.instances.iter().enumerate() {
-            if selection == Selection::Casters && !inst.casts_shadows {
+            if !keep(inst) {
                 continue;
             }
             push_instance(scene, i, inst, &mut triangles);
@@ -230,9 +252,9 @@ mod tests {
     #[test]
     fn negative_zero_direction_components_still_hit() {
         // A box standing on the floor, a ray towards it whose z component is −0.0.
-        let mut scene = shadowlab_core::Scene::new("box");
-        let m = scene.add_material(shadowlab_core::Material::default());
-        let cube = scene.add_mesh(shadowlab_core::primitives::cuboid(Vec3::ONE));
+        let mut scene = crate::Scene::new("box");
+        let m = scene.add_material(crate::Material::default());
+        let cube = scene.add_mesh(crate::primitives::cuboid(Vec3::ONE));
         scene.add_instance(Instance::new("box", cube, m, Affine3A::from_translation(Vec3::new(0.0, 0.5, 0.0))));
         let bvh = SceneBvh::build(&scene, Selection::All);
         let dir = -Vec3::new(-1.0, -1.0, 0.0).normalize();

@@ -44,6 +44,9 @@ enum Command {
     /// Run a timeline of edits (drags, light changes, moves, camera) on the live engine: time and
     /// work per frame, checks against a fresh engine and the truth; timeline.json, report.html.
     Play(commands::play::Args),
+    /// Precompute the light meshes of the static lights (no GPU): static receivers cut along the
+    /// static shadows, lit pieces only (Hasselgren 2003), for the `lightmesh` technique.
+    Precompute(commands::precompute::Args),
 }
 
 fn main() {
@@ -59,6 +62,7 @@ fn main() {
         Command::Calibrate(a) => commands::calibrate::run(&cli.global, a),
         Command::Analyze(a) => commands::analyze::run(&cli.global, a),
         Command::Play(a) => commands::play::run(&cli.global, a),
+        Command::Precompute(a) => commands::precompute::run(&cli.global, a),
     };
     if let Err(e) = result {
         eprintln!("error: {}", chain_text(&e));

@@ -25,13 +25,14 @@ const TECHNIQUES: &[&str] = &[
     "volumes",
     "lightmaps:samples=9,texel=0.05,rest=hard",
     "ssm:map_size=256",
+    "lightmesh",
 ];
 
 /// Soft techniques may differ from a fresh engine by float rounding of sums in another order;
 /// hard maps and volumes must be equal. Measured: 0 for all (same maps, same lookups); bound 1e-3
 /// RMSE (the margin) for the soft ones.
 fn exact(spec: &str) -> bool {
-    ["hard", "pcf", "volumes", "cascaded", "ssm"].iter().any(|t| spec.starts_with(t))
+    ["hard", "pcf", "volumes", "cascaded", "ssm", "lightmesh"].iter().any(|t| spec.starts_with(t))
 }
 
 struct Live {

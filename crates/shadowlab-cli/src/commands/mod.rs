@@ -4,6 +4,7 @@ pub mod calibrate;
 pub mod compare;
 pub mod inspect;
 pub mod play;
+pub mod precompute;
 pub mod reference;
 pub mod render;
 pub mod scenes;

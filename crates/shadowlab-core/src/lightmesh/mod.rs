@@ -411,30 +411,42 @@ pub fn cut(scene: &Scene, index: usize) -> Result<Pieces, LightMeshError> {
 
     let mut mesh = PolygonMesh::new(positions, eps);
     let cut_planes = quads.len();
-    quads.extend(caps);
-    let mut pieces_of: Vec<Vec<u32>> = Vec::with_capacity(receivers.len());
+    let mut cutters = quads;
+    cutters.extend(caps);
     let mut boxes = Vec::with_capacity(receivers.len());
-    for (t, &(ids, _, cut)) in receivers.iter().enumerate() {
-        pieces_of.push(vec![mesh.add(ids.to_vec(), t as u32)]);
-        // Uncut receivers get an empty box no quad meets.
+    for &(ids, _, cut) in &receivers {
+        // Uncut receivers get an empty box no cutter meets.
         boxes.push(if cut { Aabb::from_points(ids.map(|v| mesh.positions[v as usize])) } else { Aabb::default() });
     }
+    // Each receiver triangle's cutters, in one order for all (the cut-vertex cache names planes by it).
     let tree = BoxTree::build(&boxes);
-    let mut candidates = Vec::new();
-    for (k, quad) in quads.iter().enumerate() {
-        candidates.clear();
-        tree.query(|b| !b.is_empty() && quad.may_meet_box(b, eps), |t| candidates.push(t));
-        for &t in &candidates {
-            let list = std::mem::take(&mut pieces_of[t as usize]);
-            let mut next = Vec::with_capacity(list.len() + 1);
-            for id in list {
-                let meets = mesh.crossing(id, quad.plane).is_some_and(|(p, q)| quad.meets_segment(p, q, eps));
-                match meets.then(|| mesh.cut(id, k as u32, quad.plane)).flatten() {
-                    Some(halves) => next.extend(halves),
-                    None => next.push(id),
-                }
+    let mut cutters_of: Vec<Vec<u32>> = vec![Vec::new(); receivers.len()];
+    for (k, cutter) in cutters.iter().enumerate() {
+        tree.query(|b| !b.is_empty() && cutter.may_meet_box(b, eps), |t| cutters_of[t as usize].push(k as u32));
+    }
+    for (t, &(ids, _, _)) in receivers.iter().enumerate() {
+        let id = mesh.add(ids.to_vec(), t as u32);
+        // Each piece carries the cutters that may still meet it: halves keep only those that may
+        // meet their own box, so a receiver cut into thousands of pieces is not tested against
+        // every cutter for every piece.
+        let mut work = vec![(id, std::mem::take(&mut cutters_of[t]))];
+        while let Some((id, list)) = work.pop() {
+            let hit = list.iter().position(|&k| {
+                let c = &cutters[k as usize];
+                mesh.crossing(id, c.plane).is_some_and(|(p, q)| c.meets_segment(p, q, eps))
+            });
+            let Some(i) = hit else { continue };
+            let k = list[i];
+            let Some(halves) = mesh.cut(id, k, cutters[k as usize].plane) else {
+                work.push((id, list[i + 1..].to_vec()));
+                continue;
+            };
+            for half in halves {
+                let b = piece_box(&mesh, half);
+                let rest: Vec<u32> =
+                    list[i + 1..].iter().copied().filter(|&j| cutters[j as usize].may_meet_box(&b, eps)).collect();
+                work.push((half, rest));
             }
-            pieces_of[t as usize] = next;
         }
     }
     mesh.remove_t_junctions();
@@ -442,7 +454,7 @@ pub fn cut(scene: &Scene, index: usize) -> Result<Pieces, LightMeshError> {
         mesh,
         receivers: receivers.iter().map(|r| (r.1, r.2)).collect(),
         cut_planes,
-        cap_faces: quads.len() - cut_planes,
+        cap_faces: cutters.len() - cut_planes,
     })
 }
 
@@ -466,6 +478,16 @@ fn fan(positions: &mut Vec<Vec3>, v: &[u32]) -> Vec<[u32; 3]> {
     positions.push(centre);
     let c = positions.len() as u32 - 1;
     (0..n).map(|i| [c, v[i], v[(i + 1) % n]]).collect()
+}
+
+fn piece_box(mesh: &PolygonMesh, id: u32) -> Aabb {
+    let mut b = Aabb::default();
+    if let Some(poly) = mesh.polygon(id) {
+        for &v in &poly.vertices {
+            b.grow(mesh.positions[v as usize]);
+        }
+    }
+    b
 }
 
 /// Whether the point `p` on a surface with normal `n` (facing the light) sees the light's centre.

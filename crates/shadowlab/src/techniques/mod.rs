@@ -5,6 +5,7 @@ mod cascaded;
 mod cssm;
 mod hard;
 mod lightmaps;
+mod lightmesh;
 mod map_lookup;
 mod none;
 mod pcf;
@@ -34,4 +35,5 @@ pub(crate) static REGISTRY: &[TechniqueInfo] = &[
     smoothies::INFO,
     lightmaps::INFO,
     ssm::INFO,
+    lightmesh::INFO,
 ];

@@ -136,6 +136,7 @@ pub(super) struct Caster {
     pub centre: Vec3,
     pub radius: f32,
     pub bounds: shadowlab_core::Aabb,
+    pub mobility: shadowlab_core::Mobility,
 }
 
 impl Caster {
@@ -167,6 +168,7 @@ impl Caster {
                     centre,
                     radius,
                     bounds,
+                    mobility: i.mobility,
                 }
             })
             .collect()

@@ -107,9 +107,12 @@ struct SampleUniform {
     index: [u32; 4],
 }
 
-struct Volumes {
+pub(crate) struct Volumes {
     params: ParamSet,
     settings: Settings,
+    caster_set: CasterSet,
+    /// Bounding spheres of the non-static instances (the receivers of a focused instance).
+    focus_spheres: Vec<(glam::Vec3, f32)>,
     crop: bool,
     samples: Vec<EmitterPoint>,
     /// The light's emitter version the samples were taken from.
@@ -211,39 +214,86 @@ impl Receivers {
 }
 
 fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let settings = Settings {
-        mode: Mode::parse(params.choice("mode")),
-        parity: params.choice("stencil") == "invert",
-        scissor: params.bool("scissor"),
-        cull: params.bool("cull"),
-    };
-    let clamp = shared.gpu.device.features().contains(wgpu::Features::DEPTH_CLIP_CONTROL);
-    if settings.parity && !clamp && settings.mode != Mode::ZFail {
-        return Err(TechniqueError::Failed {
-            id: INFO.id.into(),
-            message: "stencil=invert counts from the eye with depth clamping, which this adapter lacks \
-                      (DEPTH_CLIP_CONTROL); use stencil=count"
-                .into(),
-        });
+    Ok(Box::new(Volumes::new(shared, params, light, CasterSet::All, false)?))
+}
+
+/// Which casters' volumes a `volumes` instance draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum CasterSet {
+    All,
+    /// Static casters only (their shadows on dynamic receivers: `lightmesh`).
+    Static,
+    /// Dynamic casters only (their shadows on everything: `lightmesh`).
+    Dynamic,
+}
+
+impl CasterSet {
+    fn keeps(self, mobility: shadowlab_core::Mobility) -> bool {
+        match self {
+            Self::All => true,
+            Self::Static => mobility == shadowlab_core::Mobility::Static,
+            Self::Dynamic => mobility != shadowlab_core::Mobility::Static,
+        }
     }
-    let samples = volume_samples(params, light);
-    Ok(Box::new(Volumes {
-        params: params.clone(),
-        settings,
-        crop: params.bool("crop"),
-        samples,
-        emitter_version: 0,
-        topology: None,
-        casters: Vec::new(),
-        caster_epoch: None,
-        caster_bounds: shadowlab_core::Aabb::EMPTY,
-        store: None,
-        state: None,
-        receivers: None,
-        plans: Vec::new(),
-        frames: 0,
-        stats: VolumeStats::default(),
-    }))
+}
+
+impl Volumes {
+    /// A `volumes` instance over `casters`; with `focus`, drawn only over the non-static
+    /// receivers' screen rectangle ([`Volumes::focus_rect`]).
+    pub(crate) fn new(
+        shared: &Shared,
+        params: &ParamSet,
+        light: &Light,
+        casters: CasterSet,
+        focus: bool,
+    ) -> Result<Self, TechniqueError> {
+        let settings = Settings {
+            mode: Mode::parse(params.choice("mode")),
+            parity: params.choice("stencil") == "invert",
+            scissor: params.bool("scissor"),
+            cull: params.bool("cull"),
+            focus,
+        };
+        let clamp = shared.gpu.device.features().contains(wgpu::Features::DEPTH_CLIP_CONTROL);
+        if settings.parity && !clamp && settings.mode != Mode::ZFail {
+            return Err(TechniqueError::Failed {
+                id: INFO.id.into(),
+                message: "stencil=invert counts from the eye with depth clamping, which this adapter lacks \
+                      (DEPTH_CLIP_CONTROL); use stencil=count"
+                    .into(),
+            });
+        }
+        let samples = volume_samples(params, light);
+        Ok(Volumes {
+            params: params.clone(),
+            settings,
+            caster_set: casters,
+            focus_spheres: Vec::new(),
+            crop: params.bool("crop"),
+            samples,
+            emitter_version: 0,
+            topology: None,
+            casters: Vec::new(),
+            caster_epoch: None,
+            caster_bounds: shadowlab_core::Aabb::EMPTY,
+            store: None,
+            state: None,
+            receivers: None,
+            plans: Vec::new(),
+            frames: 0,
+            stats: VolumeStats::default(),
+        })
+    }
+
+    /// Whether any caster of its set is in the scene (else it would say 1 everywhere).
+    pub(crate) fn has_casters(&self) -> bool {
+        !self.casters.is_empty()
+    }
+
+    /// With focus: the pixels the last frame's result holds for (`[0; 4]`: none); `None` without.
+    pub(crate) fn focus_rect(&self) -> Option<[u32; 4]> {
+        self.plans.first().and_then(|p| p.focus_rect)
+    }
 }
 
 fn depth_stencil_format(shared: &Shared) -> wgpu::TextureFormat {
@@ -659,6 +709,20 @@ fn caster_bounds(casters: &[Caster]) -> shadowlab_core::Aabb {
     )
 }
 
+/// Bounding spheres of the instances that are not static (dynamic and dragged ones): where static
+/// casters' shadows are not already in a light mesh.
+fn focus_spheres(scene: &shadowlab_core::Scene) -> Vec<(glam::Vec3, f32)> {
+    scene
+        .instances
+        .iter()
+        .filter(|i| i.mobility != shadowlab_core::Mobility::Static)
+        .map(|i| {
+            let b = scene.mesh(i.mesh).bounds().transformed(&i.transform);
+            (b.center(), b.diagonal() * 0.5 * 1.0001 + 1e-6)
+        })
+        .collect()
+}
+
 /// Aligned stride for dynamic uniform offsets.
 fn stride(device: &wgpu::Device, size: usize) -> u64 {
     let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(16);
@@ -810,6 +874,8 @@ impl ShadowTechnique for Volumes {
             // The scene changed: take its casters and receivers as they are now, in the same buffers
             // when they fit (each caster keeps its slot, and its volumes while it stands still).
             self.casters = Caster::all(ctx.live, &topology);
+            let set = self.caster_set;
+            self.casters.retain(|c| set.keeps(c.mobility));
             self.caster_bounds = caster_bounds(&self.casters);
             self.caster_epoch = Some(ctx.live.epoch());
             if let Some(store) = &mut self.store
@@ -856,6 +922,9 @@ impl ShadowTechnique for Volumes {
             eye: cam.position.truncate(),
             near_ndc_depth: if cam.depth.x == 0.0 { 1.0 } else { 0.0 },
         };
+        if self.settings.focus {
+            self.focus_spheres = focus_spheres(ctx.scene);
+        }
         let frame = FrameView {
             camera: &camera,
             width: size.0,
@@ -865,6 +934,7 @@ impl ShadowTechnique for Volumes {
             slots: &store.slot_of,
             topology: &topology,
             bounds: &self.caster_bounds,
+            focus: &self.focus_spheres,
         };
         let volume_matrix = camera.volume_matrix();
         self.plans.clear();

@@ -3,7 +3,7 @@
 //! here is decided from bounding spheres and the camera, before any GPU work is recorded; it is the
 //! only place the camera enters (the extracted volumes are camera-independent and cached).
 
-use glam::Vec4;
+use glam::{Vec3, Vec4};
 use shadowlab_core::Aabb;
 use shadowlab_core::volumes::{
     LightSource, SphereRect, VolumeCamera, ZpPlus, box_volume_touches, crossings, sphere_volume_reaches_plane,
@@ -63,6 +63,10 @@ pub(super) struct Settings {
     pub parity: bool,
     pub scissor: bool,
     pub cull: bool,
+    /// Draw only where the focus receivers (`FrameView::focus`) are: the scissor and the culling
+    /// frustum shrink to their screen rectangle (Hasselgren 2003 §3.3.1.1–2, the static volumes of
+    /// `lightmesh`, merged per light as §3.3.1.3 chooses).
+    pub focus: bool,
 }
 
 /// One light sample's frame.
@@ -77,6 +81,9 @@ pub(super) struct SamplePlan {
     pub stencil_start: u32,
     /// Pixels (x, y, width, height); `None`: the whole surface.
     pub scissor: Option<[u32; 4]>,
+    /// With `Settings::focus`: the pixels whose result is meaningful (the focus receivers'
+    /// rectangle within the light's); `[0, 0, 0, 0]` when no focus receiver is on screen.
+    pub focus_rect: Option<[u32; 4]>,
     /// The casters whose volumes are drawn (culled against the frustum through the scissor and
     /// the light's range), in slot order.
     pub casters: Vec<Drawn>,
@@ -104,6 +111,8 @@ pub(super) struct FrameView<'a> {
     pub topology: &'a VolumeTopology,
     /// Bounds of every caster (the depth range of the ZP+ projection for the sun).
     pub bounds: &'a Aabb,
+    /// Bounding spheres of the receivers that need the volumes (with `Settings::focus`).
+    pub focus: &'a [(Vec3, f32)],
 }
 
 pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSource) -> SamplePlan {
@@ -113,9 +122,11 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
         robust: false,
         stencil_start: 0,
         scissor: None,
+        focus_rect: None,
         casters: Vec::new(),
     };
     let mut planes: [Vec4; 5] = frame.camera.planes([-1.0, -1.0, 1.0, 1.0]);
+    let mut light_ndc = [-1.0, -1.0, 1.0, 1.0];
     // Hasselgren 2003 §3.3.1.1: the light's screen rectangle bounds everything it lights.
     let light_sphere = match (source, frame.range) {
         (LightSource::Point(p), Some(r)) => Some((p, r)),
@@ -126,11 +137,45 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
     {
         match frame.camera.sphere_rect(p, r) {
             SphereRect::Full => {}
-            SphereRect::Outside => return plan,
+            SphereRect::Outside => {
+                plan.focus_rect = settings.focus.then_some([0; 4]);
+                return plan;
+            }
             SphereRect::Rect(ndc) => {
-                let Some(rect) = pixel_rect(ndc, frame.width, frame.height) else { return plan };
+                let Some(rect) = pixel_rect(ndc, frame.width, frame.height) else {
+                    plan.focus_rect = settings.focus.then_some([0; 4]);
+                    return plan;
+                };
                 plan.scissor = Some(rect);
                 planes = frame.camera.planes(ndc);
+                light_ndc = ndc;
+            }
+        }
+    }
+    if settings.focus {
+        // The union of the focus receivers' rectangles, within the light's (or the screen).
+        let mut union: Option<[f32; 4]> = None;
+        for &(c, r) in frame.focus {
+            let ndc = match frame.camera.sphere_rect(c, r) {
+                SphereRect::Outside => continue,
+                SphereRect::Full => [-1.0, -1.0, 1.0, 1.0],
+                SphereRect::Rect(ndc) => ndc,
+            };
+            union =
+                Some(union.map_or(ndc, |u| [u[0].min(ndc[0]), u[1].min(ndc[1]), u[2].max(ndc[2]), u[3].max(ndc[3])]));
+        }
+        let rect = union
+            .map(|u| [u[0].max(light_ndc[0]), u[1].max(light_ndc[1]), u[2].min(light_ndc[2]), u[3].min(light_ndc[3])]);
+        match rect.and_then(|ndc| pixel_rect(ndc, frame.width, frame.height).map(|px| (ndc, px))) {
+            Some((ndc, px)) => {
+                plan.scissor = Some(px);
+                plan.focus_rect = Some(px);
+                planes = frame.camera.planes(ndc);
+            }
+            None => {
+                plan.scissor = None;
+                plan.focus_rect = Some([0; 4]);
+                return plan;
             }
         }
     }

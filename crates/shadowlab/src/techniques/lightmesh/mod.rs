@@ -1,0 +1,430 @@
+//! `lightmesh`: static lights with precomputed light meshes (Hasselgren 2003, NOTES-001 §1.6–1.9).
+//!
+//! Hasselgren's Table 1 splits every (light, caster, receiver) case by mobility. For a static light:
+//! - **static casters on static receivers**: precomputed. The static receivers, cut along the static
+//!   shadow boundaries with the shadowed pieces removed (the *light mesh*,
+//!   [`shadowlab_core::lightmesh`]), are drawn from the camera (`mesh.wgsl`): a pixel they cover is
+//!   lit by the static casters, any other static pixel is in their shadow. No map, no bias, no
+//!   volume: exact and nearly free.
+//! - **dynamic casters on everything**: their shadow volumes (`volumes` over the dynamic casters).
+//! - **static casters on dynamic receivers**: the static casters' volumes, drawn only over the
+//!   dynamic objects' screen rectangle within the light's (§3.3.1.1 scissor, merged per light as
+//!   §3.3.1.3 chooses), with the casters culled against the frustum through it (§3.3.1.2).
+//!
+//! A dynamic light falls back to `volumes` over every caster (Table 1's last four rows). The light
+//! mesh is built on the CPU when the technique first runs and rebuilt whenever the scene's static
+//! part or the light's position changes (the hashes of [`shadowlab_core::lightmesh::file`], checked
+//! when the live scene's epoch or the light's emitter version moves); the stencil methods are those
+//! of `volumes` (`mode`), not Hasselgren's invert-stencil depth pass over light-mesh volumes.
+//! Area lights get hard shadows from their centre.
+
+use bytemuck::{Pod, Zeroable};
+use shadowlab_core::lightmesh::{self, LightMesh, LightMeshStats};
+use shadowlab_core::params::ParamDef;
+use shadowlab_core::{Light, Mobility, ParamSet};
+
+use super::volumes::{self, CasterSet, Volumes};
+use crate::context::{Shared, UNFILTERED, texture_entry, uniform_entry};
+use crate::frame::VisibilityLayer;
+use crate::technique::{
+    FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+};
+use crate::timing::PassKind;
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    id: "lightmesh",
+    summary: "static lights: precomputed light meshes for static shadows, shadow volumes for what moves (hard)",
+    source: "Hasselgren 2003 §3.1–3.3 (Table 1, light meshes, focused static volumes)",
+    params: &[
+        ParamDef::choice(
+            "mode",
+            "auto",
+            &["auto", "zpass", "zfail", "zpplus"],
+            "stencil counting of the volumes (as `volumes`)",
+        ),
+        ParamDef::bool(
+            "focus",
+            true,
+            "static casters' volumes only over the dynamic objects' screen rectangle (false: everywhere)",
+        ),
+    ],
+    light_types: super::ALL_LIGHTS,
+    create,
+    compose: None,
+};
+
+/// `struct Combine` of `resolve.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct CombineUniform {
+    focus: [u32; 4],
+    flags: [u32; 4],
+}
+
+const MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
+
+/// The light mesh on the GPU.
+struct GpuMesh {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    /// `(static part, light)` hashes it was built from.
+    signature: (u64, u64),
+    stats: LightMeshStats,
+}
+
+/// Screen-sized targets.
+struct State {
+    size: (u32, u32),
+    mask: wgpu::TextureView,
+    dynamic: VisibilityLayer,
+    statics: VisibilityLayer,
+    uniform: wgpu::Buffer,
+}
+
+struct LightMeshTechnique {
+    params: ParamSet,
+    /// A light mesh is drawn (a static light); otherwise `statics` holds every caster's volumes.
+    precomputed: bool,
+    focus: bool,
+    /// Volumes of the dynamic casters (none for a dynamic light).
+    dynamic: Option<Volumes>,
+    /// Volumes of the static casters, focused on dynamic receivers (of every caster, for a dynamic light).
+    statics: Volumes,
+    mesh: Option<GpuMesh>,
+    /// The live scene's epoch and the light's emitter version the mesh was last checked at.
+    checked: Option<(u64, u64)>,
+    state: Option<State>,
+    /// Whether the last frame drew the dynamic and the static volumes.
+    drew: (bool, bool),
+    focus_rect: [u32; 4],
+    rebuilds: u32,
+}
+
+fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+    let mut inner = ParamSet::new(volumes::INFO.params);
+    inner
+        .set("mode", params.choice("mode"))
+        .map_err(|e| TechniqueError::Failed { id: INFO.id.into(), message: e.to_string() })?;
+    let precomputed = light.mobility == Mobility::Static;
+    let focus = params.bool("focus");
+    let (dynamic, statics) = if precomputed {
+        (
+            Some(Volumes::new(shared, &inner, light, CasterSet::Dynamic, false)?),
+            Volumes::new(shared, &inner, light, CasterSet::Static, focus)?,
+        )
+    } else {
+        (None, Volumes::new(shared, &inner, light, CasterSet::All, false)?)
+    };
+    Ok(Box::new(LightMeshTechnique {
+        params: params.clone(),
+        precomputed,
+        focus,
+        dynamic,
+        statics,
+        mesh: None,
+        checked: None,
+        state: None,
+        drew: (false, false),
+        focus_rect: [0; 4],
+        rebuilds: 0,
+    }))
+}
+
+fn mesh_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("lightmesh draw", || {
+        let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lightmesh draw"),
+            entries: &[
+                uniform_entry(0, vf),
+                texture_entry(1, wgpu::ShaderStages::FRAGMENT, UNFILTERED, wgpu::TextureViewDimension::D2),
+            ],
+        })
+    })
+}
+
+fn combine_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("lightmesh combine", || {
+        let c = wgpu::ShaderStages::COMPUTE;
+        let d2 = wgpu::TextureViewDimension::D2;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("lightmesh combine"),
+            entries: &[
+                texture_entry(0, c, UNFILTERED, d2),
+                texture_entry(1, c, UNFILTERED, d2),
+                texture_entry(2, c, UNFILTERED, d2),
+                uniform_entry(3, c),
+            ],
+        })
+    })
+}
+
+fn mesh_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
+    shared.render_pipeline("lightmesh draw", || {
+        let device = &shared.gpu.device;
+        let module = crate::shader::module(device, "lightmesh draw", include_str!("mesh.wgsl"));
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("lightmesh draw"),
+            bind_group_layouts: &[Some(&mesh_layout(shared))],
+            immediate_size: 0,
+        });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("lightmesh draw"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("mesh_vs"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: 12,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                })],
+            },
+            // Both faces: a double-sided receiver's piece may be wound either way.
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("mesh_fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: MASK_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::RED,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    })
+}
+
+fn upload(device: &wgpu::Device, mesh: &LightMesh, signature: (u64, u64), stats: LightMeshStats) -> GpuMesh {
+    use wgpu::util::DeviceExt;
+    // Buffers may not be empty: a light mesh with nothing lit keeps one unused vertex.
+    let mut positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+    positions.resize(positions.len().max(1), [0.0; 3]);
+    let mut indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let index_count = indices.len() as u32;
+    indices.resize(indices.len().max(3), 0);
+    GpuMesh {
+        vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("light mesh vertices"),
+            contents: bytemuck::cast_slice(&positions),
+            usage: wgpu::BufferUsages::VERTEX,
+        }),
+        indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("light mesh indices"),
+            contents: bytemuck::cast_slice(&indices),
+            usage: wgpu::BufferUsages::INDEX,
+        }),
+        index_count,
+        signature,
+        stats,
+    }
+}
+
+impl LightMeshTechnique {
+    /// Rebuilds the light mesh when the static part of the scene or the light moved.
+    fn refresh_mesh(&mut self, ctx: &FrameContext<'_>) -> Result<(), TechniqueError> {
+        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
+        let key = (ctx.live.epoch(), emitter);
+        if self.checked == Some(key) && self.mesh.is_some() {
+            return Ok(());
+        }
+        self.checked = Some(key);
+        let signature = (lightmesh::file::static_hash(ctx.scene), lightmesh::file::light_hash(ctx.light));
+        if self.mesh.as_ref().is_some_and(|m| m.signature == signature) {
+            return Ok(());
+        }
+        let failed = |message: String| TechniqueError::Failed { id: INFO.id.into(), message };
+        let index = ctx
+            .live
+            .lights()
+            .iter()
+            .position(|s| s.id == ctx.light_id)
+            .ok_or_else(|| failed("the light is not in the live scene".into()))?;
+        let casters = lightmesh::static_casters(ctx.scene);
+        let (mesh, stats) = lightmesh::build(ctx.scene, index, &casters).map_err(|e| failed(e.to_string()))?;
+        self.mesh = Some(upload(&ctx.gpu.device, &mesh, signature, stats));
+        self.rebuilds += 1;
+        Ok(())
+    }
+
+    fn build_state(&self, ctx: &FrameContext<'_>) -> State {
+        let device = &ctx.gpu.device;
+        let size = (ctx.surface.width, ctx.surface.height);
+        let mask = crate::util::texture_2d(
+            device,
+            "light mesh lit mask",
+            MASK_FORMAT,
+            size,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        )
+        .create_view(&Default::default());
+        State {
+            size,
+            mask,
+            dynamic: VisibilityLayer::new(device, size.0, size.1, "lightmesh dynamic volumes"),
+            statics: VisibilityLayer::new(device, size.0, size.1, "lightmesh static volumes"),
+            uniform: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("lightmesh combine"),
+                size: std::mem::size_of::<CombineUniform>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        }
+    }
+}
+
+impl ShadowTechnique for LightMeshTechnique {
+    fn id(&self) -> &'static str {
+        INFO.id
+    }
+
+    fn params(&self) -> &ParamSet {
+        &self.params
+    }
+
+    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        if self.precomputed {
+            self.refresh_mesh(ctx)?;
+        }
+        if self.state.as_ref().is_none_or(|s| s.size != (ctx.surface.width, ctx.surface.height)) {
+            self.state = Some(self.build_state(ctx));
+        }
+        if let Some(d) = &mut self.dynamic {
+            d.prepare(ctx)?;
+        }
+        self.statics.prepare(ctx)
+    }
+
+    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        let Some(state) = &self.state else { return };
+        let draw_dynamic = self.dynamic.as_ref().is_some_and(Volumes::has_casters);
+        let full = [0, 0, state.size.0, state.size.1];
+        self.focus_rect = match (self.precomputed, self.focus) {
+            (true, true) => self.statics.focus_rect().unwrap_or(full),
+            _ => full,
+        };
+        let draw_static = self.statics.has_casters() && self.focus_rect[2] > 0 && self.focus_rect[3] > 0;
+        if let (Some(d), true) = (&mut self.dynamic, draw_dynamic) {
+            d.resolve(ctx, &state.dynamic);
+        }
+        if draw_static {
+            self.statics.resolve(ctx, &state.statics);
+        }
+        self.drew = (draw_dynamic, draw_static);
+        let shared = ctx.shared;
+        let device = &ctx.gpu.device;
+        if let Some(mesh) = &self.mesh {
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("lightmesh draw"),
+                layout: &mesh_layout(shared),
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: ctx.surface.camera_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&ctx.surface.depth),
+                    },
+                ],
+            });
+            let timestamps = ctx.timer.render_pass(device, PassKind::Shadow);
+            let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("light mesh"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &state.mask,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: timestamps,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if mesh.index_count > 0 {
+                pass.set_pipeline(&mesh_pipeline(shared));
+                pass.set_bind_group(0, Some(&group), &[]);
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+            }
+        }
+        let flags = [u32::from(draw_dynamic), u32::from(self.precomputed), u32::from(draw_static), 0];
+        let uniform = CombineUniform { focus: self.focus_rect, flags };
+        ctx.gpu.queue.write_buffer(&state.uniform, 0, bytemuck::bytes_of(&uniform));
+        let mask_view = if self.mesh.is_some() { &state.mask } else { &state.statics.view };
+        let combine = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("lightmesh combine"),
+            layout: &combine_layout(shared),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(mask_view) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&state.dynamic.view) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&state.statics.view) },
+                wgpu::BindGroupEntry { binding: 3, resource: state.uniform.as_entire_binding() },
+            ],
+        });
+        let group0 = shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        let pipeline = shared.resolve_pipeline(
+            "lightmesh resolve",
+            include_str!("resolve.wgsl"),
+            "resolve",
+            &[&combine_layout(shared)],
+            &[],
+        );
+        dispatch_resolve(ctx, "lightmesh resolve", &pipeline, &[&group0, &combine]);
+    }
+
+    fn shown(&self) -> bool {
+        self.dynamic.as_ref().is_none_or(|d| d.shown()) && self.statics.shown()
+    }
+
+    fn current(&self) -> bool {
+        self.dynamic.as_ref().is_none_or(|d| d.current()) && self.statics.current()
+    }
+
+    fn stats(&self) -> TechniqueStats {
+        let inner = [self.dynamic.as_ref().map(Volumes::stats), Some(self.statics.stats())];
+        let drawn = [self.drew.0, self.drew.1];
+        let mut stats = TechniqueStats::default();
+        for (s, drawn) in inner.into_iter().zip(drawn) {
+            let Some(s) = s else { continue };
+            stats.memory_bytes += s.memory_bytes;
+            if drawn {
+                stats.passes += s.passes;
+                stats.draws += s.draws;
+                stats.triangles += s.triangles;
+            }
+        }
+        if let Some(state) = &self.state {
+            let pixels = u64::from(state.size.0) * u64::from(state.size.1);
+            stats.memory_bytes += pixels + state.dynamic.bytes() + state.statics.bytes();
+            let [_, _, w, h] = self.focus_rect;
+            stats.extra.push(("focus_fraction".into(), f64::from(w) * f64::from(h) / pixels.max(1) as f64));
+        }
+        stats.passes += 2;
+        if let Some(mesh) = &self.mesh {
+            stats.memory_bytes += mesh.vertices.size() + mesh.indices.size();
+            stats.draws += 1;
+            stats.triangles += u64::from(mesh.index_count / 3);
+            let s = &mesh.stats;
+            stats.extra.extend([
+                ("lightmesh_triangles".into(), s.triangles as f64),
+                ("lightmesh_receiver_triangles".into(), s.receiver_triangles as f64),
+                ("lightmesh_pieces".into(), s.pieces as f64),
+                ("lightmesh_build_ms".into(), s.seconds * 1e3),
+                ("lightmesh_rebuilds".into(), f64::from(self.rebuilds)),
+            ]);
+        }
+        stats.extra.push(("dynamic_volumes".into(), f64::from(u8::from(self.drew.0))));
+        stats.extra.push(("static_volumes".into(), f64::from(u8::from(self.drew.1))));
+        stats
+    }
+}

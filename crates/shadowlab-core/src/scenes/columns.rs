@@ -21,6 +21,11 @@ pub const SUMMARY: &str = "three 8 m rooms with pillars and doorways, four point
 
 pub static OPTIONS: &[ParamDef] = &[
     ParamDef::float("door_angle", 35.0, 0.0, 100.0, "how far the dynamic door is open (degrees)"),
+    ParamDef::bool(
+        "dynamic",
+        true,
+        "the balls and the door are dynamic (false: static, so that only movers move; Hasselgren's 0-object benchmark)",
+    ),
     ParamDef::int(
         "movers",
         0,
@@ -118,9 +123,12 @@ pub fn build(options: &ParamSet) -> Scene {
     // Hinged on the doorway's low-z side, swinging into the third room (+x).
     let hinge = Vec3::new(dx, 0.0, dz0 + 0.015);
     let door = cuboid_between(Vec3::new(-0.02, 0.01, 0.0), Vec3::new(0.02, DOOR_HEIGHT - 0.03, door_w));
-    b.object("door", door, wood, Affine3A::from_rotation_translation(Quat::from_rotation_y(angle), hinge))
-        .with_role(Role::Occluder)
-        .dynamic();
+    let dynamic = options.bool("dynamic");
+    let door = b.object("door", door, wood, Affine3A::from_rotation_translation(Quat::from_rotation_y(angle), hinge));
+    door.with_role(Role::Occluder);
+    if dynamic {
+        door.dynamic();
+    }
 
     // Pillars: round in the outer rooms, square in the middle one; they reach into floor and
     // ceiling slabs so no light passes at their ends.
@@ -157,9 +165,11 @@ pub fn build(options: &ParamSet) -> Scene {
     let red = b.material(Material::diffuse("red ball", Vec3::new(0.7, 0.18, 0.12)).with_specular(0.5, 80.0));
     let green = b.material(Material::diffuse("green ball", Vec3::new(0.2, 0.5, 0.28)).with_specular(0.5, 80.0));
     for ((name, x, z), material) in BALLS.into_iter().zip([red, green]) {
-        b.object(name, sphere(BALL_RADIUS, 48, 24), material, at(x, BALL_RADIUS, z))
-            .with_role(Role::Occluder)
-            .dynamic();
+        let ball = b.object(name, sphere(BALL_RADIUS, 48, 24), material, at(x, BALL_RADIUS, z));
+        ball.with_role(Role::Occluder);
+        if dynamic {
+            ball.dynamic();
+        }
     }
     movers(&mut b, options.int("movers").clamp(0, MAX_MOVERS as i64) as usize);
 

@@ -77,8 +77,6 @@ struct GpuMesh {
 struct State {
     size: (u32, u32),
     mask: wgpu::TextureView,
-    dynamic: VisibilityLayer,
-    statics: VisibilityLayer,
     uniform: wgpu::Buffer,
 }
 
@@ -108,7 +106,7 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         .map_err(|e| TechniqueError::Failed { id: INFO.id.into(), message: e.to_string() })?;
     let precomputed = light.mobility == Mobility::Static;
     let focus = params.bool("focus");
-    let (dynamic, statics) = if precomputed {
+    let (mut dynamic, mut statics) = if precomputed {
         (
             Some(Volumes::new(shared, &inner, light, CasterSet::Dynamic, false)?),
             Volumes::new(shared, &inner, light, CasterSet::Static, focus)?,
@@ -116,6 +114,9 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
     } else {
         (None, Volumes::new(shared, &inner, light, CasterSet::All, false)?)
     };
+    // One sample (the centre), no cropping: the masks always suffice.
+    let masks = dynamic.as_mut().is_none_or(Volumes::stop_at_mask) && statics.stop_at_mask();
+    debug_assert!(masks, "lightmesh's volumes have one sample");
     Ok(Box::new(LightMeshTechnique {
         params: params.clone(),
         precomputed,
@@ -268,8 +269,6 @@ impl LightMeshTechnique {
         State {
             size,
             mask,
-            dynamic: VisibilityLayer::new(device, size.0, size.1, "lightmesh dynamic volumes"),
-            statics: VisibilityLayer::new(device, size.0, size.1, "lightmesh static volumes"),
             uniform: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("lightmesh combine"),
                 size: std::mem::size_of::<CombineUniform>() as u64,
@@ -311,11 +310,12 @@ impl ShadowTechnique for LightMeshTechnique {
             _ => full,
         };
         let draw_static = self.statics.has_casters() && self.focus_rect[2] > 0 && self.focus_rect[3] > 0;
+        // The volumes stop at their shadow masks (`stop_at_mask`): `out` is not written.
         if let (Some(d), true) = (&mut self.dynamic, draw_dynamic) {
-            d.resolve(ctx, &state.dynamic);
+            d.resolve(ctx, out);
         }
         if draw_static {
-            self.statics.resolve(ctx, &state.statics);
+            self.statics.resolve(ctx, out);
         }
         self.drew = (draw_dynamic, draw_static);
         let shared = ctx.shared;
@@ -360,14 +360,22 @@ impl ShadowTechnique for LightMeshTechnique {
         let flags = [u32::from(draw_dynamic), u32::from(self.precomputed), u32::from(draw_static), 0];
         let uniform = CombineUniform { focus: self.focus_rect, flags };
         ctx.gpu.queue.write_buffer(&state.uniform, 0, bytemuck::bytes_of(&uniform));
-        let mask_view = if self.mesh.is_some() { &state.mask } else { &state.statics.view };
+        let dynamic_mask = self.dynamic.as_ref().and_then(Volumes::mask).filter(|_| draw_dynamic);
+        let static_mask = self.statics.mask().filter(|_| draw_static);
         let combine = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lightmesh combine"),
             layout: &combine_layout(shared),
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(mask_view) },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&state.dynamic.view) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&state.statics.view) },
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&state.mask) },
+                // Masks not drawn this frame are not read (`flags`): any texture binds.
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(dynamic_mask.unwrap_or(&state.mask)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(static_mask.unwrap_or(&state.mask)),
+                },
                 wgpu::BindGroupEntry { binding: 3, resource: state.uniform.as_entire_binding() },
             ],
         });
@@ -405,7 +413,7 @@ impl ShadowTechnique for LightMeshTechnique {
         }
         if let Some(state) = &self.state {
             let pixels = u64::from(state.size.0) * u64::from(state.size.1);
-            stats.memory_bytes += pixels + state.dynamic.bytes() + state.statics.bytes();
+            stats.memory_bytes += pixels;
             let [_, _, w, h] = self.focus_rect;
             stats.extra.push(("focus_fraction".into(), f64::from(w) * f64::from(h) / pixels.max(1) as f64));
         }

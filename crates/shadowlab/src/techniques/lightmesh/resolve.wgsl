@@ -1,5 +1,6 @@
-// `lightmesh` resolve: the pixels the light mesh lit (`mesh.wgsl`), the volumes of the dynamic
-// casters, and the static casters' volumes over dynamic receivers → V (Hasselgren 2003 §3.1).
+// `lightmesh` resolve: the pixels the light mesh lit (`mesh.wgsl`), the shadow masks of the dynamic
+// casters' volumes and of the static casters' volumes over dynamic receivers → V (Hasselgren 2003
+// §3.1), in one pass.
 
 // #include "resolve.wgsl"
 
@@ -12,8 +13,9 @@ struct Combine {
 };
 
 @group(1) @binding(0) var lit_mask: texture_2d<f32>;
-@group(1) @binding(1) var dynamic_visibility: texture_2d<f32>;
-@group(1) @binding(2) var static_visibility: texture_2d<f32>;
+// The volumes' shadow masks (1 in shadow): the dynamic casters', the static casters'.
+@group(1) @binding(1) var dynamic_mask: texture_2d<f32>;
+@group(1) @binding(2) var static_mask: texture_2d<f32>;
 @group(1) @binding(3) var<uniform> combine: Combine;
 
 @compute @workgroup_size(8, 8)
@@ -30,7 +32,7 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         // is a static receiver in static shadow. A dynamic light has the volumes everywhere.
         var volumes_v = 1.0;
         if (combine.flags.z != 0u) {
-            volumes_v = textureLoad(static_visibility, q, 0).r;
+            volumes_v = 1.0 - textureLoad(static_mask, q, 0).r;
         }
         let f = combine.focus;
         let in_focus = id.x >= f.x && id.y >= f.y && id.x < f.x + f.z && id.y < f.y + f.w;
@@ -44,7 +46,7 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         var dynamic_v = 1.0;
         if (combine.flags.x != 0u) {
-            dynamic_v = textureLoad(dynamic_visibility, q, 0).r;
+            dynamic_v = 1.0 - textureLoad(dynamic_mask, q, 0).r;
         }
         v = static_v * dynamic_v;
     }

@@ -111,6 +111,8 @@ pub(crate) struct Volumes {
     params: ParamSet,
     settings: Settings,
     caster_set: CasterSet,
+    /// Stop at the stencil's shadow mask (one sample, no cropping): [`Volumes::mask`].
+    mask_only: bool,
     /// Bounding spheres of the non-static instances (the receivers of a focused instance).
     focus_spheres: Vec<(glam::Vec3, f32)>,
     crop: bool,
@@ -268,6 +270,7 @@ impl Volumes {
             params: params.clone(),
             settings,
             caster_set: casters,
+            mask_only: false,
             focus_spheres: Vec::new(),
             crop: params.bool("crop"),
             samples,
@@ -283,6 +286,19 @@ impl Volumes {
             frames: 0,
             stats: VolumeStats::default(),
         })
+    }
+
+    /// Makes `resolve` stop at the shadow mask (R8: 1 in shadow, 0 lit; what `mask` returns) when the
+    /// light has one sample and receivers are not cropped: a caller combining several volumes reads
+    /// the masks in one pass instead of each writing a visibility layer.
+    pub(crate) fn stop_at_mask(&mut self) -> bool {
+        self.mask_only = self.samples.len() == 1 && !self.crop;
+        self.mask_only
+    }
+
+    /// The last frame's shadow mask (see [`Volumes::stop_at_mask`]).
+    pub(crate) fn mask(&self) -> Option<&wgpu::TextureView> {
+        self.state.as_ref().map(|s| &s.mask_view)
     }
 
     /// Whether any caster of its set is in the scene (else it would say 1 everywhere).
@@ -1020,6 +1036,11 @@ impl ShadowTechnique for Volumes {
                     multiview_mask: None,
                 });
                 pass.set_bind_group(0, Some(&stencil_group), &[pass_offset]);
+                // Focused: nothing outside the focus rectangle is read, not even the depth copy.
+                let focus_scissor = plan.focus_rect.filter(|r| r[2] > 0 && r[3] > 0);
+                if let Some([x, y, w, h]) = focus_scissor {
+                    pass.set_scissor_rect(x, y, w, h);
+                }
                 if i == 0 {
                     pass.set_pipeline(&copy_pipeline(shared));
                     pass.draw(0..3, 0..1);
@@ -1108,11 +1129,18 @@ impl ShadowTechnique for Volumes {
                     multiview_mask: None,
                 });
                 pass.set_bind_group(0, Some(&stencil_group), &[pass_offset]);
+                if let Some([x, y, w, h]) = plan.focus_rect.filter(|r| r[2] > 0 && r[3] > 0) {
+                    pass.set_scissor_rect(x, y, w, h);
+                }
                 for d in mask_draws(parity, crop) {
                     pass.set_pipeline(&mask_pipeline(shared, &d));
                     pass.set_stencil_reference(d.reference);
                     pass.draw(0..3, 0..1);
                 }
+            }
+            if self.mask_only && single {
+                // The caller reads the mask itself (`lightmesh`).
+                continue;
             }
             let entry = if single { "single" } else { "accumulate" };
             let timestamps = ctx.timer.compute_pass(device, PassKind::Visibility);
@@ -1222,7 +1250,7 @@ impl ShadowTechnique for Volumes {
         let receivers = self.receivers.as_ref().map_or(0, |r| r.instances.size() + r.map.bytes());
         TechniqueStats {
             memory_bytes: state.bytes + store + receivers + topology,
-            passes: 3 * n + u32::from(n > 1),
+            passes: if self.mask_only { 2 * n } else { 3 * n + u32::from(n > 1) },
             draws: self.stats.draws,
             triangles: self.stats.triangles.unwrap_or(0),
             extra,

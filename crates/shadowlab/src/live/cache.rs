@@ -40,6 +40,8 @@ pub struct Work {
     pub volume_objects: u32,
     /// Views rendered for temporary (dragged) objects: every frame while they are dragged.
     pub temporary_views: u32,
+    /// Light meshes rebuilt on the CPU (`lightmesh`: a static object or the light moved).
+    pub light_meshes: u32,
     /// Items found valid and reused.
     pub reused: u32,
     /// Visibility layers written (a light whose maps, scene and surface did not change keeps its
@@ -54,7 +56,7 @@ pub struct Work {
 
 impl Work {
     /// `(name, count)` of every counter, for reports.
-    pub fn counts(&self) -> [(&'static str, u32); 8] {
+    pub fn counts(&self) -> [(&'static str, u32); 9] {
         [
             ("map_views", self.map_views),
             ("composite_views", self.composite_views),
@@ -64,12 +66,13 @@ impl Work {
             ("reused", self.reused),
             ("resolves", self.resolves),
             ("deferred", self.deferred),
+            ("light_meshes", self.light_meshes),
         ]
     }
 
     /// Whether anything was rebuilt (reuse does not count).
     pub fn rebuilt_anything(&self) -> bool {
-        self.map_views + self.lightmap_samples + self.volume_objects + self.temporary_views > 0
+        self.map_views + self.lightmap_samples + self.volume_objects + self.temporary_views + self.light_meshes > 0
     }
 }
 

@@ -33,11 +33,20 @@ pub enum ItemKind {
     /// A light's visibility layer (and the screen-sized buffers behind it), kept across still
     /// frames.
     ScreenBuffer,
+    /// A static light's light mesh: its static receivers cut along the static shadows, lit pieces
+    /// only (Hasselgren 2003 §3.2; `lightmesh`).
+    LightMesh,
 }
 
 impl ItemKind {
-    pub const ALL: [ItemKind; 5] =
-        [Self::StaticView, Self::CompositeView, Self::LightMap, Self::VolumeObject, Self::ScreenBuffer];
+    pub const ALL: [ItemKind; 6] = [
+        Self::StaticView,
+        Self::CompositeView,
+        Self::LightMap,
+        Self::VolumeObject,
+        Self::ScreenBuffer,
+        Self::LightMesh,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -46,13 +55,15 @@ impl ItemKind {
             Self::LightMap => "receiver light map",
             Self::VolumeObject => "object volume",
             Self::ScreenBuffer => "visibility layer",
+            Self::LightMesh => "light mesh",
         }
     }
 
     /// The casters an item of this kind holds: static ones only, or every permanent one.
     pub fn caster_classes(self) -> &'static [Mobility] {
         match self {
-            Self::StaticView => &[Mobility::Static],
+            // A light mesh holds the static instances, receivers as much as casters.
+            Self::StaticView | Self::LightMesh => &[Mobility::Static],
             Self::CompositeView | Self::LightMap => &[Mobility::Static, Mobility::Dynamic],
             Self::VolumeObject | Self::ScreenBuffer => &[],
         }
@@ -111,6 +122,14 @@ pub fn rule(edit: EditKind, item: ItemKind) -> Rule {
         (EditKind::AddLight, _) => Rule::Never,
         (EditKind::Camera, I::StaticView | I::CompositeView) => Rule::CameraFitted,
         (EditKind::Camera, _) => Rule::Never,
+        // A light mesh is the static part seen from the light (Hasselgren's Table 1: static light,
+        // static caster, static receiver): only static instances within the light's range count.
+        (EditKind::MoveInstance(S) | EditKind::AddInstance(S) | EditKind::RemoveInstance(S), I::LightMesh) => {
+            Rule::Region
+        }
+        (EditKind::MoveInstance(_) | EditKind::AddInstance(_) | EditKind::RemoveInstance(_), I::LightMesh) => {
+            Rule::Never
+        }
         // Temporary (dragged) instances are in no cached item (Toromanoff §3.3).
         (EditKind::MoveInstance(T) | EditKind::AddInstance(T) | EditKind::RemoveInstance(T), _) => Rule::Never,
         (EditKind::MoveInstance(S), I::StaticView | I::CompositeView | I::LightMap) => Rule::Region,
@@ -298,6 +317,27 @@ pub fn screen_signature(live: &LiveScene, light: LightId, surface: u64) -> Signa
     Signature { emitter, view: surface, casters: Vec::new(), object: live.instances_epoch() }
 }
 
+/// The region a light mesh depends on: the scene's fitted bounds, within the light's range.
+pub fn lightmesh_region(live: &LiveScene, light: &Light) -> Region {
+    Region::of_box(&live.fit_bounds(), light)
+}
+
+/// The signature of a light's light mesh: its emitter and every static instance in `region` (casting
+/// or only receiving), with their versions.
+pub fn lightmesh_signature(live: &LiveScene, light: LightId, region: &Region) -> Signature {
+    let emitter = live.light_state(light).map_or(0, |s| s.emitter_version);
+    let mut statics: Vec<(InstanceId, u64)> = live
+        .scene()
+        .instances
+        .iter()
+        .zip(live.instances())
+        .filter(|(inst, s)| inst.mobility == Mobility::Static && region.meets(&s.bounds))
+        .map(|(_, s)| (s.id, s.version))
+        .collect();
+    statics.sort_unstable();
+    Signature { emitter, view: 0, casters: statics, object: 0 }
+}
+
 /// A hash of a shadow view and whatever else decides what an item holds (raster state, size).
 pub fn view_hash(view: &ShadowView, extra: &[u64]) -> u64 {
     let mut h = std::hash::DefaultHasher::new();
@@ -384,6 +424,9 @@ mod tests {
                     );
                 }
             }
+            let region = lightmesh_region(live, light);
+            let item = Item { kind: ItemKind::LightMesh, light: state.id, region: Some(region), object: None };
+            out.insert((ItemKind::LightMesh, state.id.0, 0, 0), (item, lightmesh_signature(live, state.id, &region)));
             let item = Item { kind: ItemKind::ScreenBuffer, light: state.id, region: None, object: None };
             let sig = screen_signature(live, state.id, u64::from(output.0) << 32 | u64::from(output.1));
             out.insert((ItemKind::ScreenBuffer, state.id.0, 0, 0), (item, sig));

@@ -12,10 +12,11 @@
 //!   §3.3.1.3 chooses), with the casters culled against the frustum through it (§3.3.1.2).
 //!
 //! A dynamic light falls back to `volumes` over every caster (Table 1's last four rows). The light
-//! mesh is built on the CPU when the technique first runs and rebuilt whenever the scene's static
-//! part or the light's position changes (the hashes of [`shadowlab_core::lightmesh::file`], checked
-//! when the live scene's epoch or the light's emitter version moves); the stencil methods are those
-//! of `volumes` (`mode`), not Hasselgren's invert-stencil depth pass over light-mesh volumes.
+//! mesh is built on the CPU when the technique first runs and is a cached item of the live engine
+//! ([`ItemKind::LightMesh`]): rebuilt when the validity table says an edit touched it (a static
+//! instance within the light's range moved, came or went, or the light itself changed). The stencil
+//! methods are those of `volumes` (`mode`), not Hasselgren's invert-stencil depth pass over
+//! light-mesh volumes.
 //! Area lights get hard shadows from their centre.
 
 use bytemuck::{Pod, Zeroable};
@@ -26,6 +27,8 @@ use shadowlab_core::{Light, Mobility, ParamSet};
 use super::volumes::{self, CasterSet, Volumes};
 use crate::context::{Shared, UNFILTERED, texture_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
+use crate::live::validity::{lightmesh_region, lightmesh_signature};
+use crate::live::{ItemKey, ItemKind};
 use crate::technique::{
     FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
 };
@@ -68,8 +71,6 @@ struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
-    /// `(static part, light)` hashes it was built from.
-    signature: (u64, u64),
     stats: LightMeshStats,
 }
 
@@ -90,8 +91,8 @@ struct LightMeshTechnique {
     /// Volumes of the static casters, focused on dynamic receivers (of every caster, for a dynamic light).
     statics: Volumes,
     mesh: Option<GpuMesh>,
-    /// The live scene's epoch and the light's emitter version the mesh was last checked at.
-    checked: Option<(u64, u64)>,
+    /// Its cache set (the mesh's record in the [`crate::live::ShadowCache`]).
+    set: Option<u32>,
     state: Option<State>,
     /// Whether the last frame drew the dynamic and the static volumes.
     drew: (bool, bool),
@@ -124,7 +125,7 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         dynamic,
         statics,
         mesh: None,
-        checked: None,
+        set: None,
         state: None,
         drew: (false, false),
         focus_rect: [0; 4],
@@ -203,7 +204,7 @@ fn mesh_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
     })
 }
 
-fn upload(device: &wgpu::Device, mesh: &LightMesh, signature: (u64, u64), stats: LightMeshStats) -> GpuMesh {
+fn upload(device: &wgpu::Device, mesh: &LightMesh, stats: LightMeshStats) -> GpuMesh {
     use wgpu::util::DeviceExt;
     // Buffers may not be empty: a light mesh with nothing lit keeps one unused vertex.
     let mut positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
@@ -223,22 +224,20 @@ fn upload(device: &wgpu::Device, mesh: &LightMesh, signature: (u64, u64), stats:
             usage: wgpu::BufferUsages::INDEX,
         }),
         index_count,
-        signature,
         stats,
     }
 }
 
 impl LightMeshTechnique {
-    /// Rebuilds the light mesh when the static part of the scene or the light moved.
-    fn refresh_mesh(&mut self, ctx: &FrameContext<'_>) -> Result<(), TechniqueError> {
-        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
-        let key = (ctx.live.epoch(), emitter);
-        if self.checked == Some(key) && self.mesh.is_some() {
-            return Ok(());
-        }
-        self.checked = Some(key);
-        let signature = (lightmesh::file::static_hash(ctx.scene), lightmesh::file::light_hash(ctx.light));
-        if self.mesh.as_ref().is_some_and(|m| m.signature == signature) {
+    /// Rebuilds the light mesh when the validity table says an edit touched it (a static instance
+    /// within the light's range, or the light itself: [`ItemKind::LightMesh`]).
+    fn refresh_mesh(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        let set = *self.set.get_or_insert_with(|| ctx.cache.new_set());
+        let key = ItemKey { light: ctx.light_id, owner: ctx.owner, set, kind: ItemKind::LightMesh, index: 0 };
+        let region = lightmesh_region(ctx.live, ctx.light);
+        let signature = lightmesh_signature(ctx.live, ctx.light_id, &region);
+        if self.mesh.is_some() && ctx.cache.is_valid(&key, &signature) {
+            ctx.cache.work.reused += 1;
             return Ok(());
         }
         let failed = |message: String| TechniqueError::Failed { id: INFO.id.into(), message };
@@ -250,8 +249,10 @@ impl LightMeshTechnique {
             .ok_or_else(|| failed("the light is not in the live scene".into()))?;
         let casters = lightmesh::static_casters(ctx.scene);
         let (mesh, stats) = lightmesh::build(ctx.scene, index, &casters).map_err(|e| failed(e.to_string()))?;
-        self.mesh = Some(upload(&ctx.gpu.device, &mesh, signature, stats));
+        self.mesh = Some(upload(&ctx.gpu.device, &mesh, stats));
         self.rebuilds += 1;
+        ctx.cache.work.light_meshes += 1;
+        ctx.cache.commit(key, signature);
         Ok(())
     }
 

@@ -36,6 +36,10 @@ pub struct SceneArgs {
     /// lights (the Cornell box's ceiling panel) instead of a default sun.
     #[arg(long)]
     pub emissive_lights: bool,
+    /// Light meshes from `shadowlab precompute` for `lightmesh` (a file for another scene, an older
+    /// format or a damaged file is reported, and the light meshes are computed instead).
+    #[arg(long, value_name = "FILE")]
+    pub light_meshes: Option<std::path::PathBuf>,
 }
 
 /// The scene, the chosen view and the chosen lights, ready to use.
@@ -45,6 +49,8 @@ pub struct Setup {
     pub lights: Vec<LightId>,
     pub width: u32,
     pub height: u32,
+    /// Light meshes read with `--light-meshes`, valid for `scene`.
+    pub light_meshes: Vec<shadowlab_core::lightmesh::LightMesh>,
 }
 
 impl SceneArgs {
@@ -83,7 +89,34 @@ impl SceneArgs {
                 .collect::<Result<Vec<_>>>()?
         };
         let (width, height) = self.size;
-        Ok(Setup { scene, view, lights, width, height })
+        let light_meshes = match &self.light_meshes {
+            Some(path) => read_light_meshes(path, &scene)?,
+            None => Vec::new(),
+        };
+        Ok(Setup { scene, view, lights, width, height, light_meshes })
+    }
+}
+
+/// The light meshes of `path` still valid for `scene`. A missing file is an error (a typo); a stale,
+/// foreign or damaged one is reported and ignored, and `lightmesh` computes its meshes.
+fn read_light_meshes(path: &std::path::Path, scene: &Scene) -> Result<Vec<shadowlab_core::lightmesh::LightMesh>> {
+    use shadowlab_core::lightmesh::file::{self, LightMeshFileError};
+    match file::read(path, scene) {
+        Ok(decoded) => {
+            for &i in &decoded.stale {
+                eprintln!(
+                    "warning: --light-meshes {}: light '{}' moved since it was precomputed; its light mesh is computed again",
+                    path.display(),
+                    scene.lights[i].name
+                );
+            }
+            Ok(decoded.meshes)
+        }
+        Err(e @ LightMeshFileError::Io { .. }) => Err(e.into()),
+        Err(e) => {
+            eprintln!("warning: --light-meshes {}: {e}; the light meshes are computed instead", path.display());
+            Ok(Vec::new())
+        }
     }
 }
 
@@ -482,6 +515,9 @@ pub fn renderer(gpu: &shadowlab::Gpu, setup: &Setup, spec: &shadowlab::Technique
 /// A renderer for `setup` with each chosen light's spec of `selected` and `none` on the others.
 pub fn renderer_for(gpu: &shadowlab::Gpu, setup: &Setup, selected: &Selected) -> Result<shadowlab::Renderer> {
     let mut r = shadowlab::Renderer::new(gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
+    if !setup.light_meshes.is_empty() {
+        r.provide_light_meshes(setup.light_meshes.clone());
+    }
     let none = shadowlab::TechniqueSpec::parse("none", &[])?;
     for (i, light) in setup.scene.lights.iter().enumerate() {
         let id = LightId(i as u32);

@@ -371,3 +371,57 @@ fn bad_input_gives_clear_errors() {
     assert!(!stderr.contains("reference:"), "checked after tracing: {stderr}");
     std::fs::remove_dir_all(out).ok();
 }
+
+/// `precompute` writes a light-mesh file without a GPU and reports what it made; `render
+/// --light-meshes` takes it, and warns and recomputes for another scene's file; a missing file or a
+/// dynamic light is a clear error.
+#[test]
+fn precompute_writes_light_meshes_that_the_engine_takes() {
+    let dir = temp("precompute");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("columns.lmesh");
+    let f = file.to_str().unwrap();
+    let out = shadowlab(&["precompute", "--scene", "columns", "--out", f, "--json"]);
+    ok(&out);
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["lights"].as_array().unwrap().len(), 4, "columns has four static lamps");
+    assert_eq!(report["bytes"].as_u64().unwrap(), std::fs::metadata(&file).unwrap().len());
+    for light in report["lights"].as_array().unwrap() {
+        for key in ["receiver_triangles", "pieces", "lit_pieces", "triangles", "seconds"] {
+            assert!(light[key].is_number(), "precompute JSON lacks '{key}'");
+        }
+    }
+    let png = dir.join("c.png");
+    let render = |scene: &str| {
+        shadowlab(&[
+            "render",
+            "--scene",
+            scene,
+            "--size",
+            "32x32",
+            "--technique",
+            "lightmesh",
+            "--light-meshes",
+            f,
+            "--out",
+            png.to_str().unwrap(),
+        ])
+    };
+    let same = render("columns");
+    ok(&same);
+    assert!(!String::from_utf8_lossy(&same.stderr).contains("warning"), "the file fits columns");
+    let other = render("room");
+    ok(&other);
+    assert!(
+        String::from_utf8_lossy(&other.stderr).contains("made for another scene"),
+        "room refuses columns' file: {}",
+        String::from_utf8_lossy(&other.stderr)
+    );
+    let missing = dir.join("none.lmesh");
+    fails_with(
+        &["render", "--scene", "columns", "--light-meshes", missing.to_str().unwrap(), "--out", png.to_str().unwrap()],
+        "No such file",
+    );
+    fails_with(&["precompute", "--scene", "columns", "--out", dir.to_str().unwrap()], "is a directory");
+    fails_with(&["precompute", "--scene", "columns", "--lights", "lamp 9", "--out", f], "no light 'lamp 9'");
+}

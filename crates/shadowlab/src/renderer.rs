@@ -158,6 +158,11 @@ impl Renderer {
         &self.targets.surface
     }
 
+    /// [`Shadows::provide_light_meshes`].
+    pub fn provide_light_meshes(&mut self, meshes: Vec<shadowlab_core::lightmesh::LightMesh>) -> usize {
+        self.shadows.provide_light_meshes(meshes)
+    }
+
     /// Applies a scene edit between frames (see [`Shadows::apply`]).
     pub fn apply(&mut self, edit: Edit) -> Result<Applied, EditError> {
         self.shadows.apply(edit)

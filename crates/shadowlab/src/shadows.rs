@@ -137,6 +137,25 @@ impl Shadows {
         &self.live
     }
 
+    /// Hands over light meshes made for the scene as it is now (`shadowlab precompute`, read with
+    /// `shadowlab_core::lightmesh::file::read`, which refuses other scenes): `lightmesh` takes them
+    /// instead of building its own, until an edit touches them (the validity table). Returns how
+    /// many were taken; meshes of lights not in the scene are left out.
+    pub fn provide_light_meshes(&mut self, meshes: Vec<shadowlab_core::lightmesh::LightMesh>) -> usize {
+        let mut taken = 0;
+        for mesh in meshes {
+            let Some(state) = self.live.lights().get(mesh.light as usize) else { continue };
+            let light = &self.live.scene().lights[mesh.light as usize];
+            let region = crate::live::validity::lightmesh_region(&self.live, light);
+            let signature = crate::live::validity::lightmesh_signature(&self.live, state.id, &region);
+            let id = state.id;
+            self.cache.preloaded_light_meshes.retain(|(l, _, _)| *l != id);
+            self.cache.preloaded_light_meshes.push((id, signature, std::sync::Arc::new(mesh)));
+            taken += 1;
+        }
+        taken
+    }
+
     /// The scene's GPU buffers (an application drawing its own G-buffer binds them).
     pub fn gpu_scene(&self) -> &GpuScene {
         &self.gpu_scene

@@ -162,5 +162,48 @@ fn static_edits_rebuild_the_light_mesh_and_dynamic_lights_fall_back() {
     assert!(w <= 1e-3, "dynamic light: {w} wrong vs the truth");
     let stats = run.renderer.shadows.stats();
     assert!(!stats.extra.iter().any(|(k, _)| k == "lamp 3: lightmesh_triangles"), "a dynamic light has no light mesh");
-    let _ = TechniqueSpec::parse("lightmesh:focus=false", &[]).unwrap();
+}
+
+/// Light meshes from a file (`shadowlab precompute`) are taken as they are, give the same shadows as
+/// meshes built by the engine, and are rebuilt once an edit touches them; a file for another scene
+/// is refused before it reaches the engine.
+#[test]
+fn light_meshes_from_a_file_are_used_until_an_edit_touches_them() {
+    use shadowlab_core::lightmesh::{self, file};
+    let gpu = gpu();
+    let scene = hard_scene("columns");
+    let view = scene.views[0].clone();
+    let lights: Vec<LightId> = (0..scene.lights.len() as u32).map(LightId).collect();
+    let casters = lightmesh::static_casters(&scene);
+    let meshes: Vec<_> = (0..scene.lights.len()).map(|i| lightmesh::build(&scene, i, &casters).unwrap().0).collect();
+    let bytes = file::encode(&scene, &meshes);
+    assert!(file::decode(&bytes, &hard_scene("room")).is_err(), "another scene's file is refused");
+    let decoded = file::decode(&bytes, &scene).unwrap();
+
+    let built = render(&gpu, &scene, &view, SIZE, "lightmesh", &lights);
+    let mut run = render(&gpu, &scene, &view, SIZE, "none", &lights);
+    assert_eq!(run.renderer.provide_light_meshes(decoded.meshes), 4);
+    let spec = TechniqueSpec::parse("lightmesh", &[]).unwrap();
+    for &l in &lights {
+        run.renderer.set_technique(l, &spec).unwrap();
+    }
+    run.renderer.render().unwrap();
+    assert_eq!(run.stat("lamp 2", "lightmesh_from_file"), 1.0);
+    assert_eq!(run.stat("lamp 2", "lightmesh_rebuilds"), 0.0);
+    for &l in &lights {
+        assert_eq!(run.visibility(l), built.visibility(l), "light {}: file and built meshes differ", l.0);
+    }
+    let pillars = run.renderer.shadows.live().find_instance("pillars").unwrap();
+    let t = run.renderer.shadows.live().instance(pillars).unwrap().transform;
+    let moved = Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.25)) * t;
+    run.renderer.apply(Edit::Transform { instance: pillars, transform: moved }).unwrap();
+    run.renderer.render().unwrap();
+    assert_eq!(run.stat("lamp 2", "lightmesh_from_file"), 0.0, "the pillars moved: the file's mesh is stale");
+    assert_eq!(run.stat("lamp 2", "lightmesh_rebuilds"), 1.0);
+    let live = run.renderer.live_visibility().unwrap();
+    let fresh = run.renderer.fresh_visibility().unwrap();
+    for ((l, a), (_, b)) in live.iter().zip(&fresh) {
+        let differ = a.iter().zip(b).filter(|(x, y)| x != y && !(x.is_nan() && y.is_nan())).count();
+        assert_eq!(differ, 0, "light {l} differs from a fresh engine after the edit");
+    }
 }

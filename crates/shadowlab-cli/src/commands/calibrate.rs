@@ -220,6 +220,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         lights: args.lights.clone(),
         emitter_scale: args.emitter_scale,
         emissive_lights: args.emissive_lights,
+        light_meshes: None,
     };
     let mut setup = scene_args.load()?;
     let views: Vec<shadowlab_core::View> = if args.views.is_empty() {

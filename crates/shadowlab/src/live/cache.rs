@@ -8,8 +8,10 @@
 //! what is alive.
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use shadowlab_core::LightId;
+use shadowlab_core::lightmesh::LightMesh;
 
 use super::scheduler::UnitCounts;
 use super::validity::{ItemKind, Signature};
@@ -88,6 +90,9 @@ pub struct ShadowCache {
     pub work: Work,
     /// This frame's units of work by kind and size, for the cost model.
     pub units: UnitCounts,
+    /// Light meshes read from a file (`shadowlab precompute`), each with the signature of the state
+    /// it was made for: `lightmesh` takes one instead of building it while the signatures agree.
+    pub preloaded_light_meshes: Vec<(LightId, Signature, Arc<LightMesh>)>,
 }
 
 impl Default for ShadowCache {
@@ -99,6 +104,7 @@ impl Default for ShadowCache {
             generation: 0,
             work: Work::default(),
             units: UnitCounts::new(),
+            preloaded_light_meshes: Vec::new(),
         }
     }
 }

@@ -12,7 +12,8 @@
 //!   §3.3.1.3 chooses), with the casters culled against the frustum through it (§3.3.1.2).
 //!
 //! A dynamic light falls back to `volumes` over every caster (Table 1's last four rows). The light
-//! mesh is built on the CPU when the technique first runs and is a cached item of the live engine
+//! mesh comes from a file (`shadowlab precompute`, [`crate::Shadows::provide_light_meshes`]) or is
+//! built on the CPU when the technique first runs, and is a cached item of the live engine
 //! ([`ItemKind::LightMesh`]): rebuilt when the validity table says an edit touched it (a static
 //! instance within the light's range moved, came or went, or the light itself changed). The stencil
 //! methods are those of `volumes` (`mode`), not Hasselgren's invert-stencil depth pass over
@@ -91,6 +92,8 @@ struct LightMeshTechnique {
     /// Volumes of the static casters, focused on dynamic receivers (of every caster, for a dynamic light).
     statics: Volumes,
     mesh: Option<GpuMesh>,
+    /// The mesh came from a file (`Shadows::provide_light_meshes`), not built here.
+    from_file: bool,
     /// Its cache set (the mesh's record in the [`crate::live::ShadowCache`]).
     set: Option<u32>,
     state: Option<State>,
@@ -125,6 +128,7 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         dynamic,
         statics,
         mesh: None,
+        from_file: false,
         set: None,
         state: None,
         drew: (false, false),
@@ -240,6 +244,21 @@ impl LightMeshTechnique {
             ctx.cache.work.reused += 1;
             return Ok(());
         }
+        let preloaded = ctx
+            .cache
+            .preloaded_light_meshes
+            .iter()
+            .find(|(light, s, _)| *light == ctx.light_id && *s == signature)
+            .map(|(_, _, mesh)| std::sync::Arc::clone(mesh));
+        if let Some(mesh) = preloaded {
+            let stats = LightMeshStats { triangles: mesh.triangle_count(), ..LightMeshStats::default() };
+            self.mesh = Some(upload(&ctx.gpu.device, &mesh, stats));
+            self.from_file = true;
+            ctx.cache.work.reused += 1;
+            ctx.cache.commit(key, signature);
+            return Ok(());
+        }
+        self.from_file = false;
         let failed = |message: String| TechniqueError::Failed { id: INFO.id.into(), message };
         let index = ctx
             .live
@@ -430,6 +449,7 @@ impl ShadowTechnique for LightMeshTechnique {
                 ("lightmesh_pieces".into(), s.pieces as f64),
                 ("lightmesh_build_ms".into(), s.seconds * 1e3),
                 ("lightmesh_rebuilds".into(), f64::from(self.rebuilds)),
+                ("lightmesh_from_file".into(), f64::from(u8::from(self.from_file))),
             ]);
         }
         stats.extra.push(("dynamic_volumes".into(), f64::from(u8::from(self.drew.0))));

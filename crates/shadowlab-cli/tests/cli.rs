@@ -417,6 +417,26 @@ fn precompute_writes_light_meshes_that_the_engine_takes() {
         "room refuses columns' file: {}",
         String::from_utf8_lossy(&other.stderr)
     );
+    // The fill view: volume fragments per pixel; maps have none.
+    let fill = shadowlab(&[
+        "render",
+        "--scene",
+        "columns",
+        "--size",
+        "32x32",
+        "--technique",
+        "lightmesh",
+        "--overlay",
+        "fill",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    ok(&fill);
+    assert!(String::from_utf8_lossy(&fill.stdout).contains("volume fill:"), "the fill summary is printed");
+    fails_with(
+        &["render", "--scene", "columns", "--size", "32x32", "--overlay", "fill", "--out", png.to_str().unwrap()],
+        "overlay 'fill' needs shadow volumes",
+    );
     let missing = dir.join("none.lmesh");
     fails_with(
         &["render", "--scene", "columns", "--light-meshes", missing.to_str().unwrap(), "--out", png.to_str().unwrap()],

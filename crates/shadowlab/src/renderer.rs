@@ -711,6 +711,23 @@ pub struct MapOverlay {
 }
 
 impl Renderer {
+    /// Shadow-volume fragments per pixel of the first rendered frame, summed over `lights`
+    /// (Hasselgren 2003 Fig. 8's overdraw); `None` when none of their techniques draws volumes.
+    pub fn fill_counts(&self, lights: &[LightId]) -> Result<Option<Vec<u32>>, GpuError> {
+        let pixels = self.width as usize * self.height as usize;
+        let mut total: Option<Vec<u32>> = None;
+        for s in self.shadows.lights.iter().filter(|s| lights.contains(&s.light)) {
+            for buffer in s.shown_technique().fill_counts() {
+                let bytes = util::read_buffer(&self.gpu.device, &self.gpu.queue, buffer)?;
+                let sum = total.get_or_insert_with(|| vec![0; pixels]);
+                for (t, c) in sum.iter_mut().zip(bytes[16..].chunks_exact(4)) {
+                    *t = t.saturating_add(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+                }
+            }
+        }
+        Ok(total)
+    }
+
     /// Analyses the maps of `light`'s technique for the last rendered frame; `None` when the
     /// technique does not shade from one map per pixel (`none`, `sampled`). `grid` is the spacing of
     /// the texel-grid lines in texels.

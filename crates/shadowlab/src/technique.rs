@@ -134,6 +134,13 @@ pub trait ShadowTechnique: Send {
         None
     }
 
+    /// Shadow-volume fill of the first frame: buffers of u32 counters, the total then one per pixel
+    /// (row by row), for `render --overlay fill` (Hasselgren 2003 Fig. 8). Empty for techniques
+    /// without volumes.
+    fn fill_counts(&self) -> Vec<&wgpu::Buffer> {
+        Vec::new()
+    }
+
     /// Gives up the caches a successor on the same light could keep ([`Handover`]). Default: none.
     fn hand_over(&mut self) -> Option<Handover> {
         None

@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use shadowlab_reference::images::write_rgb_png;
 
 use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, renderer_for};
-use crate::overlay::{Overlay, compose};
+use crate::overlay::{Overlay, compose, compose_fill};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -17,7 +17,8 @@ pub struct Args {
     /// Output PNG file.
     #[arg(long)]
     out: PathBuf,
-    /// Draw an analysis overlay for the first shadowed light (hard, pcf and cascaded maps).
+    /// Draw an analysis overlay: for the first shadowed light's maps (hard, pcf, cascaded), or the
+    /// volume fill of every shadowed light (`fill`: volumes, lightmesh).
     #[arg(long, value_enum)]
     overlay: Option<Overlay>,
     /// Texels between the lines of the texel-grid overlay.
@@ -52,7 +53,19 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let mut r = renderer_for(&gpu, &setup, spec)?;
     let report = r.render()?;
     let mut image = r.read_image()?;
-    if let Some(kind) = args.overlay {
+    if args.overlay == Some(Overlay::Fill) {
+        let counts = r.fill_counts(&setup.lights)?.with_context(|| {
+            format!("overlay 'fill' needs shadow volumes (volumes, lightmesh), not '{}'", spec.label())
+        })?;
+        let total: u64 = counts.iter().map(|&c| u64::from(c)).sum();
+        let covered = counts.iter().filter(|&&c| c > 0).count();
+        println!(
+            "volume fill: {total} fragments, {:.2} per pixel, {covered} pixels covered, at most {} on one",
+            total as f64 / counts.len().max(1) as f64,
+            counts.iter().max().copied().unwrap_or(0)
+        );
+        image = compose_fill(&image, &counts);
+    } else if let Some(kind) = args.overlay {
         let light = *setup.lights.first().context("no light to analyse")?;
         let data = r.map_overlay(light, args.grid)?.with_context(|| {
             format!(

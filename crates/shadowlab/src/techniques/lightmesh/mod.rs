@@ -418,6 +418,17 @@ impl ShadowTechnique for LightMeshTechnique {
         self.dynamic.as_ref().is_none_or(|d| d.current()) && self.statics.current()
     }
 
+    fn fill_counts(&self) -> Vec<&wgpu::Buffer> {
+        let mut out = Vec::new();
+        if let (Some(d), true) = (&self.dynamic, self.drew.0) {
+            out.extend(d.fill_counts());
+        }
+        if self.drew.1 {
+            out.extend(self.statics.fill_counts());
+        }
+        out
+    }
+
     fn stats(&self) -> TechniqueStats {
         let inner = [self.dynamic.as_ref().map(Volumes::stats), Some(self.statics.stats())];
         let drawn = [self.drew.0, self.drew.1];

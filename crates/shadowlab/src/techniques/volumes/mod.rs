@@ -781,7 +781,8 @@ impl Volumes {
         });
         let fill = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("volume fill"),
-            size: 16,
+            // The total, then one counter per pixel.
+            size: 16 + 4 * u64::from(w) * u64::from(h),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -1210,6 +1211,13 @@ impl ShadowTechnique for Volumes {
 
     fn current(&self) -> bool {
         self.store.as_ref().is_some_and(|s| s.current) && self.receivers.as_ref().is_none_or(|r| r.map.current())
+    }
+
+    fn fill_counts(&self) -> Vec<&wgpu::Buffer> {
+        match &self.state {
+            Some(state) if self.frames > 0 => vec![&state.fill],
+            _ => Vec::new(),
+        }
     }
 
     fn stats(&self) -> TechniqueStats {

@@ -81,12 +81,14 @@ fn receiver_vs(v: ReceiverIn) -> @builtin(position) vec4<f32> {
 
 @group(1) @binding(0) var<storage, read_write> fill: array<atomic<u32>>;
 
-// Counts every rasterised volume fragment: the fill rate shadow volumes are known for. (Cropped
-// receivers' fragments are counted too: there the stencil test rejects the update, not the
-// rasterisation.)
+// Counts every rasterised volume fragment: the fill rate shadow volumes are known for, in all
+// (fill[0]) and per pixel (from fill[4], row by row: the `render --overlay fill` heat image,
+// Hasselgren 2003 Fig. 8). (Cropped receivers' fragments are counted too: there the stencil test
+// rejects the update, not the rasterisation.)
 @fragment
-fn fill_fs() {
+fn fill_fs(@builtin(position) frag: vec4<f32>) {
     atomicAdd(&fill[0], 1u);
+    atomicAdd(&fill[4u + u32(frag.y) * u32(camera.size.x) + u32(frag.x)], 1u);
 }
 
 // The value a mask draw writes where its stencil test passes (see `MaskDraw` in mod.rs): a pixel

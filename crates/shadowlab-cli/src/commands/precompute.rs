@@ -23,6 +23,10 @@ pub struct Args {
     /// Only these lights (names or indices, comma-separated); default: every static light.
     #[arg(long, value_delimiter = ',')]
     lights: Vec<String>,
+    /// Fake soft shadows for `lightmesh:soft=true`: penumbra wedges, `half` (the outer half, no
+    /// leak next to dynamic hard shadows) or `full`; default: hard light meshes.
+    #[arg(long, value_parser = ["half", "full"])]
+    soft: Option<String>,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -60,7 +64,12 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
     let mut meshes = Vec::new();
     let mut rows = Vec::new();
     for &i in &chosen {
-        let (mesh, stats) = lightmesh::build(scene, i, &casters)?;
+        let mode = match args.soft.as_deref() {
+            Some("half") => lightmesh::Mode::Soft(lightmesh::Penumbra::Half),
+            Some(_) => lightmesh::Mode::Soft(lightmesh::Penumbra::Full),
+            None => lightmesh::Mode::Hard,
+        };
+        let (mesh, stats) = lightmesh::build_with(scene, i, &casters, mode)?;
         bar.inc(1);
         rows.push(json!({
             "light": scene.lights[i].name, "index": i,
@@ -78,7 +87,7 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
     let summary = json!({
         "scene": scene.name, "file": args.out.display().to_string(), "bytes": bytes,
         "seconds": seconds, "bvh_seconds": casters.build_time.as_secs_f64(),
-        "static_triangles": static_triangles, "lights": rows,
+        "static_triangles": static_triangles, "soft": args.soft, "lights": rows,
     });
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);

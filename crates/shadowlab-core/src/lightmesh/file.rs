@@ -11,7 +11,8 @@
 //! scene      u64      static_hash(scene): the static instances (meshes, transforms, flags)
 //! count      u32      light meshes
 //! per mesh:  light u32, light hash u64 (position, direction, kind, range),
-//!            vertices u32, triangles u32, positions 3 × f32 each, corners 3 × u32 each, instance u32 each
+//!            vertices u32, triangles u32, positions 3 × f32 each, corners 3 × u32 each, instance u32 each,
+//!            soft u32 (0 or 1), then with soft a visibility f32 per vertex (fake soft shadows)
 //! checksum   u64      FNV-1a of every byte before it
 //! ```
 
@@ -23,7 +24,7 @@ use super::{LightMesh, is_static};
 use crate::{Light, Scene};
 
 pub const MAGIC: &[u8; 8] = b"SLLMESH\0";
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Why a light-mesh file was refused.
 #[derive(Debug, thiserror::Error)]
@@ -131,6 +132,11 @@ pub fn encode(scene: &Scene, meshes: &[LightMesh]) -> Vec<u8> {
         for i in &m.instances {
             out.extend_from_slice(&i.to_le_bytes());
         }
+        let soft = !m.visibility.is_empty();
+        out.extend_from_slice(&u32::from(soft).to_le_bytes());
+        for v in &m.visibility {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
     }
     let mut h = Fnv::default();
     h.bytes(&out);
@@ -232,6 +238,22 @@ pub fn decode(bytes: &[u8], scene: &Scene) -> Result<Decoded, LightMeshFileError
                 return Err(LightMeshFileError::Corrupt(format!("light {light}: instance {i} is not in the scene")));
             }
             m.instances.push(i);
+        }
+        match r.u32()? {
+            0 => {}
+            1 => {
+                if nv.saturating_mul(4) > body.len() - r.at {
+                    return Err(LightMeshFileError::Corrupt(format!("light {light}: visibility does not fit")));
+                }
+                for _ in 0..nv {
+                    let v = r.f32()?;
+                    if !(0.0..=1.0).contains(&v) {
+                        return Err(LightMeshFileError::Corrupt(format!("light {light}: a visibility outside [0, 1]")));
+                    }
+                    m.visibility.push(v);
+                }
+            }
+            other => return Err(LightMeshFileError::Corrupt(format!("light {light}: soft flag {other}"))),
         }
         match scene.lights.get(light as usize) {
             Some(l) if light_hash(l) == hash => out.meshes.push(m),

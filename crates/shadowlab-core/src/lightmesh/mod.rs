@@ -54,6 +54,9 @@ pub struct LightMesh {
     pub triangles: Vec<[u32; 3]>,
     /// The scene instance each triangle comes from.
     pub instances: Vec<u32>,
+    /// Fake soft shadows (§3.4): the light's visibility at each vertex, interpolated across the
+    /// triangles. Empty for hard light meshes (1 everywhere).
+    pub visibility: Vec<f32>,
 }
 
 impl LightMesh {
@@ -181,6 +184,201 @@ impl Cutter {
     }
 }
 
+/// A penumbra wedge of one silhouette edge a → b (Hasselgren 2003 §3.4 after Akenine-Möller &
+/// Assarsson 2002): bounded by the surface swept from the edge away from the emitter point that
+/// leaves the light fully visible (`out`: V = 1) and the one where it is fully hidden (`inn`: V = 0;
+/// for [`Penumbra::Half`] the hard shadow's edge, swept from the centre), closed at each end by the
+/// triangle between the two directions there. Directions are per vertex, from the silhouette's
+/// outward normal at the vertex, so neighbouring wedges share their end triangles and leave no gap.
+#[derive(Debug, Clone, Copy)]
+struct Wedge {
+    a: Vec3,
+    b: Vec3,
+    out_a: Vec3,
+    out_b: Vec3,
+    in_a: Vec3,
+    in_b: Vec3,
+    /// The direction away from the light's centre at a (a directional light's travel direction).
+    hard_a: Vec3,
+    /// The end triangles' planes, `≥ 0` inside.
+    side_a: Vec4,
+    side_b: Vec4,
+    /// A directional light (the emitter points are directions).
+    directional: bool,
+    /// The light's centre (`None`: directional).
+    light: Option<Vec3>,
+    /// Within the scene (the sweeps cut at `reach`).
+    bounds: Aabb,
+}
+
+impl Wedge {
+    fn far(&self, reach: f32) -> [Vec3; 4] {
+        let f = |p: Vec3, d: Vec3| p + d * (reach / d.length().max(1e-12));
+        [f(self.a, self.out_a), f(self.b, self.out_b), f(self.a, self.in_a), f(self.b, self.in_b)]
+    }
+
+    /// The receivers are cut along both sweeps (two triangles each: they need not be planar) and
+    /// the two end triangles.
+    fn cutters(&self, reach: f32) -> Vec<Cutter> {
+        let [oa, ob, ia, ib] = self.far(reach);
+        let (a, b) = (self.a, self.b);
+        [(a, b, ob), (a, ob, oa), (a, b, ib), (a, ib, ia), (a, oa, ia), (b, ob, ib)]
+            .into_iter()
+            .filter_map(|(p, q, r)| Cutter::triangle(p, q, r))
+            .collect()
+    }
+
+    /// V at `p` if `p` lies in the wedge: 1 − t, where the surface through the edge swept along
+    /// `out + t (in − out)` (directions blended along the edge at p's position) passes through p;
+    /// with the unit direction and distance from `p` to the emitter point it still sees past the edge.
+    fn visibility(&self, p: Vec3, eps: f32) -> Option<(f32, Vec3, f32)> {
+        // Where along the edge p lies, seen from the light: p projected onto the hard quad's plane,
+        // then along the light's rays onto the edge's line. Only points whose ray meets the edge
+        // itself, beyond it, can be in its wedge.
+        let e = self.b - self.a;
+        let (s, beyond) = match self.light {
+            Some(l) => {
+                let n = (self.a - l).cross(self.b - l);
+                let pp = p - n * ((p - l).dot(n) / n.length_squared().max(1e-30));
+                let (u, w) = (pp - l, self.a - l);
+                let eu = e.cross(u);
+                let s = -w.cross(u).dot(eu) / eu.length_squared().max(1e-30);
+                (s, (pp - self.a.lerp(self.b, s)).dot(u) > 0.0)
+            }
+            None => {
+                let d = self.hard_a;
+                let n = e.cross(d);
+                let pp = p - n * ((p - self.a).dot(n) / n.length_squared().max(1e-30));
+                let ed = e.cross(d);
+                let s = (pp - self.a).cross(d).dot(ed) / ed.length_squared().max(1e-30);
+                (s, (pp - self.a.lerp(self.b, s)).dot(d) > 0.0)
+            }
+        };
+        let slack = eps / e.length().max(1e-30);
+        if !beyond || !(-slack..=1.0 + slack).contains(&s) {
+            return None;
+        }
+        let s = s.clamp(0.0, 1.0);
+        let out = self.out_a.lerp(self.out_b, s);
+        let inn = self.in_a.lerp(self.in_b, s);
+        let f0 = (p - self.a).dot(e.cross(out));
+        let f1 = (p - self.a).dot(e.cross(inn - out));
+        if f1.abs() <= f32::MIN_POSITIVE {
+            return None;
+        }
+        let t = -f0 / f1;
+        // Points on the sweeps themselves (t 0 or 1 up to rounding) belong to the wedge.
+        const SLACK: f32 = 1e-4;
+        if !(-SLACK..=1.0 + SLACK).contains(&t) {
+            return None;
+        }
+        // The emitter point the inner sweep comes from (the edge point minus its direction): the
+        // part of the light a point in the penumbra still sees past this edge.
+        let (dir, dist) = if self.directional {
+            (-inn.normalize_or_zero(), f32::INFINITY)
+        } else {
+            let edge_point = self.a.lerp(self.b, s);
+            let to = (edge_point - inn) - p;
+            (to.normalize_or_zero(), to.length())
+        };
+        Some((1.0 - t.clamp(0.0, 1.0), dir, dist))
+    }
+}
+
+/// The wedges of a caster's silhouette edges (welded indices into `world`), for an emitter of
+/// radius (or angular tangent) `size`.
+fn wedges_of(
+    edges: &[(u32, u32)],
+    world: &[Vec3],
+    source: &LightSource,
+    size: f32,
+    penumbra: Penumbra,
+    reach: f32,
+) -> (Vec<Wedge>, Vec<(u32, u32)>) {
+    // The silhouette's outward normal per edge (perpendicular to the edge and the light direction,
+    // away from the occluding face: the edge runs along its winding, the face on its left), summed
+    // at each vertex.
+    let mut normal: FxHashMap<u32, Vec3> = FxHashMap::default();
+    for &(a, b) in edges {
+        let (pa, pb) = (world[a as usize], world[b as usize]);
+        let towards = source.towards((pa + pb) * 0.5);
+        let m = (pb - pa).cross(towards).normalize_or_zero();
+        *normal.entry(a).or_default() += m;
+        *normal.entry(b).or_default() += m;
+    }
+    // Directions at a vertex: away from the centre, and from the emitter points on either side.
+    let dirs = |v: u32| -> Option<(Vec3, Vec3, Vec3)> {
+        let p = world[v as usize];
+        let hard = source.extrude(p).truncate();
+        let u = hard.normalize_or_zero();
+        let m = normal.get(&v).copied().unwrap_or_default();
+        let m = (m - u * m.dot(u)).normalize_or_zero();
+        if m == Vec3::ZERO || u == Vec3::ZERO {
+            return None;
+        }
+        Some(match source {
+            // From L ∓ r·m through p: (p − L) ± r·m.
+            LightSource::Point(_) => (hard + m * size, hard - m * size, hard),
+            // Travel directions tilted by the angle: d ± tan θ·m.
+            LightSource::Directional(_) => (u + m * size, u - m * size, u),
+        })
+    };
+    let mut out = Vec::with_capacity(edges.len());
+    // Edges without a wedge (the light along the silhouette's normal): cut by their hard quad.
+    let mut hard = Vec::new();
+    for &(a, b) in edges {
+        let (Some((out_a, in_a, hard_a)), Some((out_b, in_b, hard_b))) = (dirs(a), dirs(b)) else {
+            hard.push((a, b));
+            continue;
+        };
+        // Linear wedges assume a light small against its distance to the edge (Hasselgren: "errors
+        // grow with the light radius"). Beyond a half-angle of MAX_TAN (a cord just above a bulb)
+        // the wedge would sweep half the room: such an edge keeps its hard quad.
+        const MAX_TAN: f32 = 0.25;
+        let tan = |o: Vec3, h: Vec3| (o - h).length() / h.length().max(1e-12);
+        if !matches!(source, LightSource::Directional(_))
+            && (tan(out_a, hard_a) > MAX_TAN || tan(out_b, hard_b) > MAX_TAN)
+        {
+            hard.push((a, b));
+            continue;
+        }
+        let (in_a, in_b) = match penumbra {
+            Penumbra::Full => (in_a, in_b),
+            Penumbra::Half => (hard_a, hard_b),
+        };
+        let (pa, pb) = (world[a as usize], world[b as usize]);
+        let side = |p: Vec3, o: Vec3, i: Vec3, towards: Vec3| {
+            let n = o.cross(i).normalize_or_zero();
+            let n = if n.dot(towards) < 0.0 { -n } else { n };
+            n.extend(-n.dot(p))
+        };
+        let mut w = Wedge {
+            a: pa,
+            b: pb,
+            out_a,
+            out_b,
+            in_a,
+            in_b,
+            hard_a,
+            side_a: side(pa, out_a, in_a, pb - pa),
+            side_b: side(pb, out_b, in_b, pa - pb),
+            directional: matches!(source, LightSource::Directional(_)),
+            light: match source {
+                LightSource::Point(l) => Some(*l),
+                LightSource::Directional(_) => None,
+            },
+            bounds: Aabb::default(),
+        };
+        if w.side_a.truncate() == Vec3::ZERO || w.side_b.truncate() == Vec3::ZERO {
+            hard.push((a, b));
+            continue;
+        }
+        w.bounds = Aabb::from_points([pa, pb].into_iter().chain(w.far(reach)));
+        out.push(w);
+    }
+    (out, hard)
+}
+
 /// A bounding-box tree over the receiver triangles, for finding the ones a quad may meet.
 struct BoxTree {
     nodes: Vec<BoxNode>,
@@ -264,24 +462,85 @@ pub struct Pieces {
     pub receivers: Vec<(u32, bool)>,
     pub cut_planes: usize,
     pub cap_faces: usize,
+    /// The penumbra wedges (soft light meshes only).
+    wedges: Vec<Wedge>,
+    wedge_tree: BoxTree,
+}
+
+impl Pieces {
+    /// The light's visibility at `p` from the wedges containing it (the least), or `None` when `p`
+    /// lies in no wedge. A wedge's value holds only where its silhouette edge is what `p` sees of
+    /// the light's edge: `sees(p, direction, distance)` tests the segment from `p` to the emitter
+    /// point a penumbra point still sees past the edge, and a blocked one counts 0 (another occluder is in the way:
+    /// the wedges of a room's outer walls reach inside it).
+    pub fn wedge_visibility(&self, p: Vec3, sees: impl Fn(Vec3, Vec3, f32) -> bool) -> Option<f32> {
+        let mut v: Option<f32> = None;
+        self.wedge_tree.query(
+            |b| b.contains(p),
+            |w| {
+                if let Some((x, dir, dist)) = self.wedges[w as usize].visibility(p, self.mesh.eps) {
+                    let x = if sees(p, dir, dist) { x } else { 0.0 };
+                    v = Some(v.map_or(x, |v| v.min(x)));
+                }
+            },
+        );
+        v
+    }
+}
+
+/// Hard light meshes, or fake soft ones from penumbra wedges (Hasselgren 2003 §3.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    Hard,
+    Soft(Penumbra),
+}
+
+/// Which part of the penumbra a soft light mesh has (NOTES-001 §1.11).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Penumbra {
+    /// From the fully lit boundary to the umbra's: both sides of the hard shadow's edge.
+    Full,
+    /// From the fully lit boundary to the hard shadow's edge only: the static umbra is the hard
+    /// shadow, so dynamic objects' hard volumes fit it and a closed dynamic door in a static frame
+    /// leaks no light (§3.4's mixing with hard dynamic shadows; the penumbra is half as wide).
+    Half,
 }
 
 /// Builds light `index`'s light mesh; `casters` is [`static_casters`] of the same scene.
 pub fn build(scene: &Scene, index: usize, casters: &SceneBvh) -> Result<(LightMesh, LightMeshStats), LightMeshError> {
+    build_with(scene, index, casters, Mode::Hard)
+}
+
+/// [`build`], hard or with fake soft shadows.
+pub fn build_with(
+    scene: &Scene,
+    index: usize,
+    casters: &SceneBvh,
+    mode: Mode,
+) -> Result<(LightMesh, LightMeshStats), LightMeshError> {
     let start = Instant::now();
-    let pieces = cut(scene, index)?;
+    let pieces = cut_with(scene, index, mode)?;
     let light = &scene.lights[index];
     let diagonal = scene.bounds().diagonal().max(1e-6);
-    let Pieces { mesh, receivers, cut_planes, cap_faces } = pieces;
-    // Classification: one shadow ray from each piece's centroid.
-    let ids: Vec<u32> = mesh.polygons().map(|(id, _)| id).collect();
+    // Classification: a piece in a penumbra wedge is kept (its vertices carry the visibility), any
+    // other by one shadow ray from its centroid (lit or umbra).
+    let sees = |p: Vec3, dir: Vec3, dist: f32| {
+        let eps = ray_epsilon(p, diagonal);
+        casters.unoccluded(&PreparedRay::new(p, dir, eps, dist - eps))
+    };
+    let ids: Vec<u32> = pieces.mesh.polygons().map(|(id, _)| id).collect();
     let lit: Vec<bool> = ids
         .iter()
         .map(|&id| {
-            let source_tri = &receivers[mesh.polygon(id).map_or(0, |p| p.source as usize)];
-            !source_tri.1 || piece_lit(&mesh, id, light, casters, diagonal)
+            let source_tri = &pieces.receivers[pieces.mesh.polygon(id).map_or(0, |p| p.source as usize)];
+            !source_tri.1
+                || pieces.wedge_visibility(pieces.mesh.centroid(id), sees).is_some_and(|v| v > 0.0)
+                || piece_lit(&pieces.mesh, id, light, casters, diagonal)
         })
         .collect();
+    let mesh = &pieces.mesh;
+    let receivers = &pieces.receivers;
+    let (cut_planes, cap_faces) = (pieces.cut_planes, pieces.cap_faces);
 
     let mut out = LightMesh { light: index as u32, ..LightMesh::default() };
     let mut remap: FxHashMap<u32, u32> = FxHashMap::default();
@@ -303,6 +562,11 @@ pub fn build(scene: &Scene, index: usize, casters: &SceneBvh) -> Result<(LightMe
             out.instances.push(instance);
         }
     }
+    if mode != Mode::Hard {
+        // Per vertex (shared vertices agree, so the interpolation is continuous): the least of the
+        // wedges containing it, 1 outside them (§3.4).
+        out.visibility = out.positions.iter().map(|&p| pieces.wedge_visibility(p, sees).unwrap_or(1.0)).collect();
+    }
     let stats = LightMeshStats {
         receiver_triangles: receivers.len(),
         cut_planes,
@@ -317,6 +581,11 @@ pub fn build(scene: &Scene, index: usize, casters: &SceneBvh) -> Result<(LightMe
 
 /// Cuts light `index`'s static receivers by its static casters' volumes (the module docs' rules).
 pub fn cut(scene: &Scene, index: usize) -> Result<Pieces, LightMeshError> {
+    cut_with(scene, index, Mode::Hard)
+}
+
+/// [`cut`] by side quads (hard) or by penumbra wedges (soft).
+pub fn cut_with(scene: &Scene, index: usize, mode: Mode) -> Result<Pieces, LightMeshError> {
     let light = scene.lights.get(index).ok_or(LightMeshError::NoSuchLight(index))?;
     if !is_static_light(light) {
         return Err(LightMeshError::NotStatic { index, name: light.name.clone() });
@@ -380,6 +649,13 @@ pub fn cut(scene: &Scene, index: usize) -> Result<Pieces, LightMeshError> {
     let mut topologies: FxHashMap<u32, Topology> = FxHashMap::default();
     let mut quads = Vec::new();
     let mut caps = Vec::new();
+    let mut wedges = Vec::new();
+    // The emitter's size for wedges: a radius, or the tangent of a directional light's angle.
+    let emitter = match light.emitter_extent() {
+        crate::light::EmitterExtent::Radius(r) if r > 0.0 => Some(r),
+        crate::light::EmitterExtent::Angle(t) if t > 0.0 => Some(t),
+        _ => None,
+    };
     for inst in scene.instances.iter().filter(|i| is_static(i) && i.casts_shadows) {
         let mesh = scene.mesh(inst.mesh);
         let topo = topologies.entry(inst.mesh.0).or_insert_with(|| Topology::build(mesh));
@@ -391,13 +667,23 @@ pub fn cut(scene: &Scene, index: usize) -> Result<Pieces, LightMeshError> {
         let two_sided = !closed || scene.material(inst.material).double_sided;
         let mirrored = inst.transform.matrix3.determinant() < 0.0;
         let signs = face_signs(topo, &world, &source, two_sided, mirrored);
-        for (a, b, _) in silhouette(topo, &signs) {
-            let (a, b) = (world[a as usize], world[b as usize]);
-            if in_range(&Aabb::from_points([a, b]))
-                && let Some(q) = Cutter::quad(a, b, &source)
-            {
-                quads.push(q);
+        let edges: Vec<(u32, u32)> = silhouette(topo, &signs)
+            .into_iter()
+            .filter(|&(a, b, _)| in_range(&Aabb::from_points([world[a as usize], world[b as usize]])))
+            .map(|(a, b, _)| (a, b))
+            .collect();
+        match (mode, emitter) {
+            (Mode::Soft(penumbra), Some(emitter)) => {
+                let (made, hard) = wedges_of(&edges, &world, &source, emitter, penumbra, 4.0 * diagonal);
+                for w in made {
+                    quads.extend(w.cutters(4.0 * diagonal));
+                    wedges.push(w);
+                }
+                let quad = |&(a, b): &(u32, u32)| Cutter::quad(world[a as usize], world[b as usize], &source);
+                quads.extend(hard.iter().filter_map(quad));
             }
+            _ => quads
+                .extend(edges.iter().filter_map(|&(a, b)| Cutter::quad(world[a as usize], world[b as usize], &source))),
         }
         for (t, _) in signs.iter().enumerate().filter(|(_, s)| **s != 0) {
             let [a, b, c] = topo.triangles[t].map(|v| world[v as usize]);
@@ -450,11 +736,14 @@ pub fn cut(scene: &Scene, index: usize) -> Result<Pieces, LightMeshError> {
         }
     }
     mesh.remove_t_junctions();
+    let wedge_tree = BoxTree::build(&wedges.iter().map(|w| w.bounds).collect::<Vec<_>>());
     Ok(Pieces {
         mesh,
         receivers: receivers.iter().map(|r| (r.1, r.2)).collect(),
         cut_planes,
         cap_faces: cutters.len() - cut_planes,
+        wedges,
+        wedge_tree,
     })
 }
 

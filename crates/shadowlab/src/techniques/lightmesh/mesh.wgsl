@@ -17,13 +17,16 @@ struct MeshOut {
     @builtin(position) clip: vec4<f32>,
     // Position relative to the eye (precision far from the origin).
     @location(0) rel: vec3<f32>,
+    // The light's visibility (fake soft shadows: per vertex, interpolated; 1 when hard).
+    @location(1) v: f32,
 };
 
 @vertex
-fn mesh_vs(@location(0) p: vec3<f32>) -> MeshOut {
+fn mesh_vs(@location(0) p: vec3<f32>, @location(1) v: f32) -> MeshOut {
     var out: MeshOut;
     out.clip = camera.view_proj * vec4<f32>(p, 1.0);
     out.rel = p - camera.position.xyz;
+    out.v = v;
     return out;
 }
 
@@ -38,6 +41,7 @@ fn mesh_fs(v: MeshOut) -> @location(0) vec4<f32> {
     if (distance(surface, v.rel) > SAME_SURFACE * length(surface)) {
         discard;
     }
-    return vec4<f32>(1.0);
+    // r: the visibility, g: marked (a visibility of 0 on the umbra's edge is still the light mesh).
+    return vec4<f32>(clamp(v.v, 0.0, 1.0), 1.0, 0.0, 0.0);
 }
 

@@ -51,6 +51,17 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
             true,
             "static casters' volumes only over the dynamic objects' screen rectangle (false: everywhere)",
         ),
+        ParamDef::bool(
+            "soft",
+            false,
+            "fake soft static shadows: receivers cut by penumbra wedges from the emitter's size, visibility per vertex (Hasselgren §3.4)",
+        ),
+        ParamDef::choice(
+            "penumbra",
+            "auto",
+            &["auto", "half", "full"],
+            "with soft: the outer half only (dynamic hard shadows fit, no leak), both halves, or half when anything is dynamic",
+        ),
     ],
     light_types: super::ALL_LIGHTS,
     create,
@@ -65,7 +76,8 @@ struct CombineUniform {
     flags: [u32; 4],
 }
 
-const MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
+/// The light mesh's marks: r the static visibility, g 1 where the light mesh is the visible surface.
+const MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
 
 /// The light mesh on the GPU.
 struct GpuMesh {
@@ -87,6 +99,9 @@ struct LightMeshTechnique {
     /// A light mesh is drawn (a static light); otherwise `statics` holds every caster's volumes.
     precomputed: bool,
     focus: bool,
+    soft: bool,
+    /// `penumbra`: `None` for auto.
+    penumbra: Option<lightmesh::Penumbra>,
     /// Volumes of the dynamic casters (none for a dynamic light).
     dynamic: Option<Volumes>,
     /// Volumes of the static casters, focused on dynamic receivers (of every caster, for a dynamic light).
@@ -110,6 +125,12 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         .map_err(|e| TechniqueError::Failed { id: INFO.id.into(), message: e.to_string() })?;
     let precomputed = light.mobility == Mobility::Static;
     let focus = params.bool("focus");
+    let soft = params.bool("soft");
+    let penumbra = match params.choice("penumbra") {
+        "half" => Some(lightmesh::Penumbra::Half),
+        "full" => Some(lightmesh::Penumbra::Full),
+        _ => None,
+    };
     let (mut dynamic, mut statics) = if precomputed {
         (
             Some(Volumes::new(shared, &inner, light, CasterSet::Dynamic, false)?),
@@ -125,6 +146,8 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         params: params.clone(),
         precomputed,
         focus,
+        soft,
+        penumbra,
         dynamic,
         statics,
         mesh: None,
@@ -183,9 +206,9 @@ fn mesh_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
                 entry_point: Some("mesh_vs"),
                 compilation_options: Default::default(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: 12,
+                    array_stride: 16,
                     step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32],
                 })],
             },
             // Both faces: a double-sided receiver's piece may be wound either way.
@@ -199,7 +222,7 @@ fn mesh_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
                 targets: &[Some(wgpu::ColorTargetState {
                     format: MASK_FORMAT,
                     blend: None,
-                    write_mask: wgpu::ColorWrites::RED,
+                    write_mask: wgpu::ColorWrites::RED | wgpu::ColorWrites::GREEN,
                 })],
             }),
             multiview_mask: None,
@@ -211,8 +234,14 @@ fn mesh_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
 fn upload(device: &wgpu::Device, mesh: &LightMesh, stats: LightMeshStats) -> GpuMesh {
     use wgpu::util::DeviceExt;
     // Buffers may not be empty: a light mesh with nothing lit keeps one unused vertex.
-    let mut positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
-    positions.resize(positions.len().max(1), [0.0; 3]);
+    // Position and visibility (1 for hard light meshes).
+    let mut positions: Vec<[f32; 4]> = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| p.extend(mesh.visibility.get(i).copied().unwrap_or(1.0)).to_array())
+        .collect();
+    positions.resize(positions.len().max(1), [0.0; 4]);
     let mut indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let index_count = indices.len() as u32;
     indices.resize(indices.len().max(3), 0);
@@ -248,7 +277,9 @@ impl LightMeshTechnique {
             .cache
             .preloaded_light_meshes
             .iter()
-            .find(|(light, s, _)| *light == ctx.light_id && *s == signature)
+            .find(|(light, s, mesh)| {
+                *light == ctx.light_id && *s == signature && mesh.visibility.is_empty() != self.soft
+            })
             .map(|(_, _, mesh)| std::sync::Arc::clone(mesh));
         if let Some(mesh) = preloaded {
             let stats = LightMeshStats { triangles: mesh.triangle_count(), ..LightMeshStats::default() };
@@ -267,7 +298,16 @@ impl LightMeshTechnique {
             .position(|s| s.id == ctx.light_id)
             .ok_or_else(|| failed("the light is not in the live scene".into()))?;
         let casters = lightmesh::static_casters(ctx.scene);
-        let (mesh, stats) = lightmesh::build(ctx.scene, index, &casters).map_err(|e| failed(e.to_string()))?;
+        let mode = if self.soft {
+            // Auto: the half penumbra as soon as anything casts a dynamic shadow (§3.4: no leak).
+            let dynamic = ctx.scene.instances.iter().any(|i| i.casts_shadows && i.mobility != Mobility::Static);
+            let half = if dynamic { lightmesh::Penumbra::Half } else { lightmesh::Penumbra::Full };
+            lightmesh::Mode::Soft(self.penumbra.unwrap_or(half))
+        } else {
+            lightmesh::Mode::Hard
+        };
+        let (mesh, stats) =
+            lightmesh::build_with(ctx.scene, index, &casters, mode).map_err(|e| failed(e.to_string()))?;
         self.mesh = Some(upload(&ctx.gpu.device, &mesh, stats));
         self.rebuilds += 1;
         ctx.cache.work.light_meshes += 1;

@@ -37,10 +37,11 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         let f = combine.focus;
         let in_focus = id.x >= f.x && id.y >= f.y && id.x < f.x + f.z && id.y < f.y + f.w;
         var static_v = 0.0;
+        let mark = textureLoad(lit_mask, q, 0);
         if (combine.flags.y == 0u) {
             static_v = volumes_v;
-        } else if (textureLoad(lit_mask, q, 0).r > 0.5) {
-            static_v = 1.0;
+        } else if (mark.g > 0.5) {
+            static_v = mark.r;
         } else if (in_focus) {
             static_v = volumes_v;
         }

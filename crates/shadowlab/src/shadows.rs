@@ -522,8 +522,14 @@ impl Shadows {
                 let before = ctx.cache.work;
                 rung.technique.prepare(&mut ctx)?;
                 let w = ctx.cache.work;
-                rebuilt[k] |= (w.map_views, w.lightmap_samples, w.volume_objects, w.temporary_views)
-                    != (before.map_views, before.lightmap_samples, before.volume_objects, before.temporary_views);
+                rebuilt[k] |= (w.map_views, w.lightmap_samples, w.volume_objects, w.temporary_views, w.light_meshes)
+                    != (
+                        before.map_views,
+                        before.lightmap_samples,
+                        before.volume_objects,
+                        before.temporary_views,
+                        before.light_meshes,
+                    );
             }
         }
         let temporary = TemporaryShadows::active(&self.live);

@@ -286,3 +286,53 @@ fn fake_soft_shadows_and_the_closed_door() {
     assert!(full > half, "the full penumbra leaks more ({full}) than the half one ({half})");
     assert!(half <= 3, "the half penumbra lights {half} fully dark pixels");
 }
+
+/// Under a frame-time target a light mesh is rebuilt on a worker thread: frames go on showing the
+/// last complete mesh (not current) until the new one lands, which then equals a fresh engine.
+#[test]
+fn under_a_target_light_meshes_are_rebuilt_in_the_background() {
+    let gpu = gpu();
+    let scene = hard_scene("columns");
+    let view = scene.views[0].clone();
+    let lights: Vec<LightId> = (0..scene.lights.len() as u32).map(LightId).collect();
+    let mut run = render(&gpu, &scene, &view, SIZE, "lightmesh", &lights);
+    let before = run.visibility(lights[0]);
+    run.renderer.set_target_ms(Some(1000.0));
+    let pillars = run.renderer.shadows.live().find_instance("pillars").unwrap();
+    let t = run.renderer.shadows.live().instance(pillars).unwrap().transform;
+    let moved = Affine3A::from_translation(Vec3::new(0.35, 0.0, 0.0)) * t;
+    run.renderer.apply(Edit::Transform { instance: pillars, transform: moved }).unwrap();
+    let work = run.renderer.render().unwrap().work;
+    assert_eq!(work.light_meshes, 0, "nothing rebuilt in the frame of the edit");
+    assert!(work.deferred >= 4, "four light meshes under way: {}", work.deferred);
+    assert!(run.renderer.shadows.levels().iter().all(|l| !l.2), "no light shows its current state yet");
+    let mid = run.visibility(lights[0]);
+    let mut frames = 0;
+    while !run.renderer.shadows.levels().iter().all(|l| l.2) {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        run.renderer.render().unwrap();
+        frames += 1;
+        assert!(frames < 500, "the background rebuilds never landed");
+    }
+    assert_eq!(run.stat("lamp 0", "lightmesh_rebuilds"), 2.0);
+    let live = run.renderer.live_visibility().unwrap();
+    let fresh = run.renderer.fresh_visibility().unwrap();
+    for ((l, a), (_, b)) in live.iter().zip(&fresh) {
+        let differ = a.iter().zip(b).filter(|(x, y)| x != y && !(x.is_nan() && y.is_nan())).count();
+        assert_eq!(differ, 0, "light {l} differs from a fresh engine once rebuilt");
+    }
+    // The static receivers keep the last complete light mesh until the new one lands (the dynamic
+    // objects already take the static volumes of the moved pillars: their volumes are not sliced).
+    let after = run.visibility(lights[0]);
+    // Pixels whose surface moved with the pillars show new geometry at once: left out.
+    let surface = run.renderer.read_surface().unwrap();
+    let same_surface = |i: usize| surface.positions[i].distance(run.surface.positions[i]) < 1e-4;
+    let changed: Vec<usize> =
+        (0..after.len()).filter(|&i| after[i] != before[i] && !after[i].is_nan() && same_surface(i)).collect();
+    let kept = changed.iter().filter(|&&i| mid[i] == before[i]).count();
+    println!("{} pixels changed by the move; {kept} still showed the old state meanwhile", changed.len());
+    assert!(changed.len() > 100, "the pillars' shadows moved: {} pixels", changed.len());
+    // Measured: 1 897 of 1 902 (the rest on dynamic objects, whose static volumes are not sliced);
+    // bound 80 %.
+    assert!(kept * 5 >= changed.len() * 4, "{kept} of {} changed pixels kept the old state", changed.len());
+}

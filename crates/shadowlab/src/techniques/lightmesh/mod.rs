@@ -77,7 +77,8 @@ struct CombineUniform {
 }
 
 /// The light mesh's marks: r the static visibility, g 1 where the light mesh is the visible surface.
-const MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
+/// (32-bit: a hard mesh's 1, interpolated across a triangle, must stay 1.)
+const MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 
 /// The light mesh on the GPU.
 struct GpuMesh {
@@ -85,6 +86,12 @@ struct GpuMesh {
     indices: wgpu::Buffer,
     index_count: u32,
     stats: LightMeshStats,
+}
+
+/// A light mesh being built in the background, for the state `signature` describes.
+struct Job {
+    signature: crate::live::Signature,
+    result: std::sync::mpsc::Receiver<Result<(LightMesh, LightMeshStats), lightmesh::LightMeshError>>,
 }
 
 /// Screen-sized targets.
@@ -109,6 +116,8 @@ struct LightMeshTechnique {
     mesh: Option<GpuMesh>,
     /// The mesh came from a file (`Shadows::provide_light_meshes`), not built here.
     from_file: bool,
+    /// A rebuild on a worker thread (under a frame-time target, when a mesh is already shown).
+    job: Option<Job>,
     /// Its cache set (the mesh's record in the [`crate::live::ShadowCache`]).
     set: Option<u32>,
     state: Option<State>,
@@ -151,6 +160,7 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         dynamic,
         statics,
         mesh: None,
+        job: None,
         from_file: false,
         set: None,
         state: None,
@@ -270,8 +280,32 @@ impl LightMeshTechnique {
         let region = lightmesh_region(ctx.live, ctx.light);
         let signature = lightmesh_signature(ctx.live, ctx.light_id, &region);
         if self.mesh.is_some() && ctx.cache.is_valid(&key, &signature) {
+            // (An edit undone: what is shown holds again, and a rebuild under way is not needed.)
+            self.job = None;
             ctx.cache.work.reused += 1;
             return Ok(());
+        }
+        // A background rebuild for this very state may have finished.
+        if let Some(job) = &self.job {
+            if job.signature == signature {
+                match job.result.try_recv() {
+                    Ok(Ok((mesh, stats))) => {
+                        self.job = None;
+                        self.install(ctx, key, signature, &mesh, stats, false);
+                        ctx.cache.work.light_meshes += 1;
+                        return Ok(());
+                    }
+                    Err(std::sync::mpsc::TryRecvError::Empty) => {
+                        ctx.budget.deferred += 1;
+                        return Ok(());
+                    }
+                    // The worker failed: build here, and report its error if it fails again.
+                    Ok(Err(_)) | Err(std::sync::mpsc::TryRecvError::Disconnected) => self.job = None,
+                }
+            } else {
+                // Made for a state that no longer is: dropped (the worker's send fails quietly).
+                self.job = None;
+            }
         }
         let preloaded = ctx
             .cache
@@ -283,13 +317,10 @@ impl LightMeshTechnique {
             .map(|(_, _, mesh)| std::sync::Arc::clone(mesh));
         if let Some(mesh) = preloaded {
             let stats = LightMeshStats { triangles: mesh.triangle_count(), ..LightMeshStats::default() };
-            self.mesh = Some(upload(&ctx.gpu.device, &mesh, stats));
-            self.from_file = true;
+            self.install(ctx, key, signature, &mesh, stats, true);
             ctx.cache.work.reused += 1;
-            ctx.cache.commit(key, signature);
             return Ok(());
         }
-        self.from_file = false;
         let failed = |message: String| TechniqueError::Failed { id: INFO.id.into(), message };
         let index = ctx
             .live
@@ -297,7 +328,6 @@ impl LightMeshTechnique {
             .iter()
             .position(|s| s.id == ctx.light_id)
             .ok_or_else(|| failed("the light is not in the live scene".into()))?;
-        let casters = lightmesh::static_casters(ctx.scene);
         let mode = if self.soft {
             // Auto: the half penumbra as soon as anything casts a dynamic shadow (§3.4: no leak).
             let dynamic = ctx.scene.instances.iter().any(|i| i.casts_shadows && i.mobility != Mobility::Static);
@@ -306,13 +336,46 @@ impl LightMeshTechnique {
         } else {
             lightmesh::Mode::Hard
         };
+        // Under a frame-time target, with a mesh to show meanwhile: rebuilt on a worker thread
+        // while the last complete mesh stays (Toromanoff's all-or-nothing rule, as maps do; the
+        // technique reports `current() == false` until it lands).
+        if self.mesh.is_some() && !ctx.budget.is_unlimited() && cfg!(not(target_arch = "wasm32")) {
+            let scene = ctx.scene.clone();
+            let (send, result) = std::sync::mpsc::channel();
+            let spawned = std::thread::Builder::new().name("light mesh".into()).spawn(move || {
+                let casters = lightmesh::static_casters(&scene);
+                let _ = send.send(lightmesh::build_with(&scene, index, &casters, mode));
+            });
+            if spawned.is_ok() {
+                self.job = Some(Job { signature, result });
+                ctx.budget.deferred += 1;
+                return Ok(());
+            }
+        }
+        let casters = lightmesh::static_casters(ctx.scene);
         let (mesh, stats) =
             lightmesh::build_with(ctx.scene, index, &casters, mode).map_err(|e| failed(e.to_string()))?;
-        self.mesh = Some(upload(&ctx.gpu.device, &mesh, stats));
-        self.rebuilds += 1;
+        self.install(ctx, key, signature, &mesh, stats, false);
         ctx.cache.work.light_meshes += 1;
-        ctx.cache.commit(key, signature);
         Ok(())
+    }
+
+    /// Shows `mesh` from now on and records it in the cache.
+    fn install(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        key: ItemKey,
+        signature: crate::live::Signature,
+        mesh: &LightMesh,
+        stats: LightMeshStats,
+        from_file: bool,
+    ) {
+        self.mesh = Some(upload(&ctx.gpu.device, mesh, stats));
+        self.from_file = from_file;
+        if !from_file {
+            self.rebuilds += 1;
+        }
+        ctx.cache.commit(key, signature);
     }
 
     fn build_state(&self, ctx: &FrameContext<'_>) -> State {
@@ -455,7 +518,7 @@ impl ShadowTechnique for LightMeshTechnique {
     }
 
     fn current(&self) -> bool {
-        self.dynamic.as_ref().is_none_or(|d| d.current()) && self.statics.current()
+        self.job.is_none() && self.dynamic.as_ref().is_none_or(|d| d.current()) && self.statics.current()
     }
 
     fn fill_counts(&self) -> Vec<&wgpu::Buffer> {

@@ -25,6 +25,11 @@ use shadowlab_core::lightmesh::{self, LightMesh, LightMeshStats};
 use shadowlab_core::params::ParamDef;
 use shadowlab_core::{Light, Mobility, ParamSet};
 
+mod mesh_volumes;
+
+use glam::Vec4;
+use shadowlab_core::volumes::{LightSource, SphereRect, VolumeCamera};
+
 use super::volumes::{self, CasterSet, Volumes};
 use crate::context::{Shared, UNFILTERED, texture_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
@@ -50,6 +55,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
             "focus",
             true,
             "static casters' volumes only over the dynamic objects' screen rectangle (false: everywhere)",
+        ),
+        ParamDef::choice(
+            "static_volumes",
+            "auto",
+            &["auto", "mesh", "casters"],
+            "static casters' shadows on dynamic objects: volumes on the light mesh's edges (Hasselgren's robust depth pass; needs depth clamping), the casters' own volumes, or mesh where the adapter clamps depth",
         ),
         ParamDef::bool(
             "soft",
@@ -99,6 +110,11 @@ struct State {
     size: (u32, u32),
     mask: wgpu::TextureView,
     uniform: wgpu::Buffer,
+    /// The light-mesh volumes' stencil and shadow mask, and their fill counters (the total, then
+    /// one per pixel).
+    stencil: wgpu::TextureView,
+    shadow: wgpu::TextureView,
+    fill: wgpu::Buffer,
 }
 
 struct LightMeshTechnique {
@@ -111,8 +127,14 @@ struct LightMeshTechnique {
     penumbra: Option<lightmesh::Penumbra>,
     /// Volumes of the dynamic casters (none for a dynamic light).
     dynamic: Option<Volumes>,
-    /// Volumes of the static casters, focused on dynamic receivers (of every caster, for a dynamic light).
-    statics: Volumes,
+    /// Volumes of the static casters, focused on dynamic receivers (of every caster, for a dynamic
+    /// light); `None` when the light mesh's own volumes stand in (`mesh_volumes`).
+    statics: Option<Volumes>,
+    /// The static shadows on dynamic objects from volumes on the light mesh's edges.
+    use_mesh_volumes: bool,
+    mesh_volumes: Option<mesh_volumes::MeshVolumes>,
+    /// Whether the light-mesh volumes' fill was counted (their first frame).
+    fill_measured: bool,
     mesh: Option<GpuMesh>,
     /// The mesh came from a file (`Shadows::provide_light_meshes`), not built here.
     from_file: bool,
@@ -140,16 +162,32 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         "full" => Some(lightmesh::Penumbra::Full),
         _ => None,
     };
-    let (mut dynamic, mut statics) = if precomputed {
-        (
+    let clamp = shared.gpu.device.features().contains(wgpu::Features::DEPTH_CLIP_CONTROL);
+    let use_mesh_volumes = precomputed
+        && match params.choice("static_volumes") {
+            "mesh" if !clamp => {
+                return Err(TechniqueError::Failed {
+                    id: INFO.id.into(),
+                    message: "static_volumes=mesh counts from the eye with depth clamping, which this adapter lacks \
+                              (DEPTH_CLIP_CONTROL); use static_volumes=casters"
+                        .into(),
+                });
+            }
+            "mesh" => true,
+            "casters" => false,
+            _ => clamp,
+        };
+    let (mut dynamic, mut statics) = match (precomputed, use_mesh_volumes) {
+        (true, true) => (Some(Volumes::new(shared, &inner, light, CasterSet::Dynamic, false)?), None),
+        (true, false) => (
             Some(Volumes::new(shared, &inner, light, CasterSet::Dynamic, false)?),
-            Volumes::new(shared, &inner, light, CasterSet::Static, focus)?,
-        )
-    } else {
-        (None, Volumes::new(shared, &inner, light, CasterSet::All, false)?)
+            Some(Volumes::new(shared, &inner, light, CasterSet::Static, focus)?),
+        ),
+        (false, _) => (None, Some(Volumes::new(shared, &inner, light, CasterSet::All, false)?)),
     };
     // One sample (the centre), no cropping: the masks always suffice.
-    let masks = dynamic.as_mut().is_none_or(Volumes::stop_at_mask) && statics.stop_at_mask();
+    let masks =
+        dynamic.as_mut().is_none_or(Volumes::stop_at_mask) && statics.as_mut().is_none_or(Volumes::stop_at_mask);
     debug_assert!(masks, "lightmesh's volumes have one sample");
     Ok(Box::new(LightMeshTechnique {
         params: params.clone(),
@@ -159,6 +197,9 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         penumbra,
         dynamic,
         statics,
+        use_mesh_volumes,
+        mesh_volumes: None,
+        fill_measured: false,
         mesh: None,
         job: None,
         from_file: false,
@@ -371,6 +412,9 @@ impl LightMeshTechnique {
         from_file: bool,
     ) {
         self.mesh = Some(upload(&ctx.gpu.device, mesh, stats));
+        if self.use_mesh_volumes {
+            self.mesh_volumes = Some(mesh_volumes::MeshVolumes::new(&ctx.gpu.device, mesh));
+        }
         self.from_file = from_file;
         if !from_file {
             self.rebuilds += 1;
@@ -392,6 +436,21 @@ impl LightMeshTechnique {
         State {
             size,
             mask,
+            stencil: mesh_volumes::stencil_target(device, size),
+            fill: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("light mesh volumes fill"),
+                size: 16 + 4 * u64::from(size.0) * u64::from(size.1),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            shadow: crate::util::texture_2d(
+                device,
+                "light mesh volumes shadow",
+                mesh_volumes::SHADOW_FORMAT,
+                size,
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            )
+            .create_view(&Default::default()),
             uniform: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("lightmesh combine"),
                 size: std::mem::size_of::<CombineUniform>() as u64,
@@ -417,28 +476,97 @@ impl ShadowTechnique for LightMeshTechnique {
         }
         if self.state.as_ref().is_none_or(|s| s.size != (ctx.surface.width, ctx.surface.height)) {
             self.state = Some(self.build_state(ctx));
+            self.fill_measured = false;
         }
         if let Some(d) = &mut self.dynamic {
             d.prepare(ctx)?;
         }
-        self.statics.prepare(ctx)
+        if let Some(s) = &mut self.statics {
+            s.prepare(ctx)?;
+        }
+        Ok(())
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let Some(state) = &self.state else { return };
         let draw_dynamic = self.dynamic.as_ref().is_some_and(Volumes::has_casters);
         let full = [0, 0, state.size.0, state.size.1];
-        self.focus_rect = match (self.precomputed, self.focus) {
-            (true, true) => self.statics.focus_rect().unwrap_or(full),
-            _ => full,
-        };
-        let draw_static = self.statics.has_casters() && self.focus_rect[2] > 0 && self.focus_rect[3] > 0;
+        let mut draw_static = false;
         // The volumes stop at their shadow masks (`stop_at_mask`): `out` is not written.
         if let (Some(d), true) = (&mut self.dynamic, draw_dynamic) {
             d.resolve(ctx, out);
         }
-        if draw_static {
-            self.statics.resolve(ctx, out);
+        if let Some(statics) = &mut self.statics {
+            self.focus_rect = match (self.precomputed, self.focus) {
+                (true, true) => statics.focus_rect().unwrap_or(full),
+                _ => full,
+            };
+            draw_static = statics.has_casters() && self.focus_rect[2] > 0 && self.focus_rect[3] > 0;
+            if draw_static {
+                statics.resolve(ctx, out);
+            }
+        } else if let Some(mv) = &mut self.mesh_volumes {
+            let cam = &ctx.surface.camera;
+            let camera = VolumeCamera {
+                view_proj: cam.view_proj,
+                eye: cam.position.truncate(),
+                near_ndc_depth: if cam.depth.x == 0.0 { 1.0 } else { 0.0 },
+            };
+            let spheres = if self.focus { volumes::focus_spheres(ctx.scene) } else { Vec::new() };
+            let light_ndc = match (ctx.light.position(), ctx.light.range) {
+                (Some(p), Some(r)) => match camera.sphere_rect(p, r) {
+                    SphereRect::Rect(ndc) => Some(ndc),
+                    SphereRect::Full => Some([-1.0, -1.0, 1.0, 1.0]),
+                    SphereRect::Outside => None,
+                },
+                _ => Some([-1.0, -1.0, 1.0, 1.0]),
+            };
+            let ndc =
+                if self.focus { light_ndc.and_then(|l| volumes::focus_ndc(&camera, &spheres, l)) } else { light_ndc };
+            let rect = ndc.and_then(|n| volumes::pixel_rect(n, state.size.0, state.size.1).map(|px| (n, px)));
+            self.focus_rect = rect.map_or([0; 4], |(_, px)| px);
+            if let Some((ndc, px)) = rect {
+                // The frustum through the rectangle, its four sides only: depth clamping keeps what
+                // lies in front of the near plane, and Hasselgren's far plane at the farthest dynamic
+                // point (§3.3.1.2) would be wrong here, where the static pixels of the rectangle that
+                // the light mesh leaves dark take the count too.
+                let planes: Vec<Vec4> = camera.planes(ndc)[..4].to_vec();
+                let focus = mesh_volumes::Focus { planes, eye: camera.eye };
+                mv.plan(&ctx.gpu.queue, &LightSource::of(ctx.light), &focus);
+                let group = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("light mesh volumes"),
+                    layout: &mesh_volumes::layout(ctx.shared),
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: ctx.surface.camera_buffer.as_entire_binding() },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(&ctx.surface.depth),
+                        },
+                    ],
+                });
+                // The first frame counts the quads' fill (`render --overlay fill`), as `volumes` does.
+                let fill = (!self.fill_measured).then(|| {
+                    ctx.encoder.clear_buffer(&state.fill, 0, None);
+                    ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("light mesh volumes fill"),
+                        layout: &mesh_volumes::fill_layout(ctx.shared),
+                        entries: &[wgpu::BindGroupEntry { binding: 0, resource: state.fill.as_entire_binding() }],
+                    })
+                });
+                self.fill_measured = true;
+                let timestamps = ctx.timer.render_pass(&ctx.gpu.device, PassKind::Shadow);
+                mv.record(
+                    ctx.shared,
+                    ctx.encoder,
+                    &group,
+                    &state.stencil,
+                    &state.shadow,
+                    px,
+                    timestamps,
+                    fill.as_ref(),
+                );
+                draw_static = true;
+            }
         }
         self.drew = (draw_dynamic, draw_static);
         let shared = ctx.shared;
@@ -484,7 +612,11 @@ impl ShadowTechnique for LightMeshTechnique {
         let uniform = CombineUniform { focus: self.focus_rect, flags };
         ctx.gpu.queue.write_buffer(&state.uniform, 0, bytemuck::bytes_of(&uniform));
         let dynamic_mask = self.dynamic.as_ref().and_then(Volumes::mask).filter(|_| draw_dynamic);
-        let static_mask = self.statics.mask().filter(|_| draw_static);
+        let static_mask = match &self.statics {
+            Some(statics) => statics.mask(),
+            None => Some(&state.shadow),
+        }
+        .filter(|_| draw_static);
         let combine = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lightmesh combine"),
             layout: &combine_layout(shared),
@@ -514,11 +646,13 @@ impl ShadowTechnique for LightMeshTechnique {
     }
 
     fn shown(&self) -> bool {
-        self.dynamic.as_ref().is_none_or(|d| d.shown()) && self.statics.shown()
+        self.dynamic.as_ref().is_none_or(|d| d.shown()) && self.statics.as_ref().is_none_or(|s| s.shown())
     }
 
     fn current(&self) -> bool {
-        self.job.is_none() && self.dynamic.as_ref().is_none_or(|d| d.current()) && self.statics.current()
+        self.job.is_none()
+            && self.dynamic.as_ref().is_none_or(|d| d.current())
+            && self.statics.as_ref().is_none_or(|s| s.current())
     }
 
     fn fill_counts(&self) -> Vec<&wgpu::Buffer> {
@@ -526,14 +660,17 @@ impl ShadowTechnique for LightMeshTechnique {
         if let (Some(d), true) = (&self.dynamic, self.drew.0) {
             out.extend(d.fill_counts());
         }
-        if self.drew.1 {
-            out.extend(self.statics.fill_counts());
+        if let (Some(s), true) = (&self.statics, self.drew.1) {
+            out.extend(s.fill_counts());
+        }
+        if let (Some(state), true) = (&self.state, self.fill_measured) {
+            out.push(&state.fill);
         }
         out
     }
 
     fn stats(&self) -> TechniqueStats {
-        let inner = [self.dynamic.as_ref().map(Volumes::stats), Some(self.statics.stats())];
+        let inner = [self.dynamic.as_ref().map(Volumes::stats), self.statics.as_ref().map(Volumes::stats)];
         let drawn = [self.drew.0, self.drew.1];
         let mut stats = TechniqueStats::default();
         for (s, drawn) in inner.into_iter().zip(drawn) {
@@ -565,6 +702,17 @@ impl ShadowTechnique for LightMeshTechnique {
                 ("lightmesh_rebuilds".into(), f64::from(self.rebuilds)),
                 ("lightmesh_from_file".into(), f64::from(u8::from(self.from_file))),
             ]);
+        }
+        if let Some(mv) = &self.mesh_volumes {
+            stats.memory_bytes += mv.bytes();
+            stats.extra.push(("mesh_volume_quads".into(), mv.quads() as f64));
+            stats.extra.push(("mesh_volume_quads_drawn".into(), f64::from(mv.drawn / 6)));
+            stats.extra.push(("mesh_volume_eye_in_shadow".into(), f64::from(mv.start)));
+            if self.drew.1 {
+                stats.passes += 1;
+                stats.draws += 2;
+                stats.triangles += u64::from(mv.drawn / 3);
+            }
         }
         stats.extra.push(("dynamic_volumes".into(), f64::from(u8::from(self.drew.0))));
         stats.extra.push(("static_volumes".into(), f64::from(u8::from(self.drew.1))));

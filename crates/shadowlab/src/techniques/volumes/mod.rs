@@ -44,6 +44,7 @@ use shadowlab_core::{Light, ParamSet, Role};
 
 use self::geometry::{Caster, VolumeTopology};
 use self::plan::{FrameView, Method, Mode, SamplePlan, Settings};
+pub(crate) use self::plan::{focus_ndc, pixel_rect};
 use self::store::{DARK_CAPS, LIGHT_CAPS, SIDES, Store, runs};
 use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
@@ -727,7 +728,7 @@ fn caster_bounds(casters: &[Caster]) -> shadowlab_core::Aabb {
 
 /// Bounding spheres of the instances that are not static (dynamic and dragged ones): where static
 /// casters' shadows are not already in a light mesh.
-fn focus_spheres(scene: &shadowlab_core::Scene) -> Vec<(glam::Vec3, f32)> {
+pub(crate) fn focus_spheres(scene: &shadowlab_core::Scene) -> Vec<(glam::Vec3, f32)> {
     scene
         .instances
         .iter()

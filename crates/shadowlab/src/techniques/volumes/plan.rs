@@ -153,19 +153,7 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
         }
     }
     if settings.focus {
-        // The union of the focus receivers' rectangles, within the light's (or the screen).
-        let mut union: Option<[f32; 4]> = None;
-        for &(c, r) in frame.focus {
-            let ndc = match frame.camera.sphere_rect(c, r) {
-                SphereRect::Outside => continue,
-                SphereRect::Full => [-1.0, -1.0, 1.0, 1.0],
-                SphereRect::Rect(ndc) => ndc,
-            };
-            union =
-                Some(union.map_or(ndc, |u| [u[0].min(ndc[0]), u[1].min(ndc[1]), u[2].max(ndc[2]), u[3].max(ndc[3])]));
-        }
-        let rect = union
-            .map(|u| [u[0].max(light_ndc[0]), u[1].max(light_ndc[1]), u[2].min(light_ndc[2]), u[3].min(light_ndc[3])]);
+        let rect = focus_ndc(frame.camera, frame.focus, light_ndc);
         match rect.and_then(|ndc| pixel_rect(ndc, frame.width, frame.height).map(|px| (ndc, px))) {
             Some((ndc, px)) => {
                 plan.scissor = Some(px);
@@ -232,8 +220,23 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
     plan
 }
 
+/// The union of the focus receivers' screen rectangles (bounding spheres), within `within` (NDC
+/// [x0, y0, x1, y1]); `None` when none is on screen (Hasselgren 2003 §3.3.1.1, merged per light).
+pub(crate) fn focus_ndc(camera: &VolumeCamera, focus: &[(Vec3, f32)], within: [f32; 4]) -> Option<[f32; 4]> {
+    let mut union: Option<[f32; 4]> = None;
+    for &(c, r) in focus {
+        let ndc = match camera.sphere_rect(c, r) {
+            SphereRect::Outside => continue,
+            SphereRect::Full => [-1.0, -1.0, 1.0, 1.0],
+            SphereRect::Rect(ndc) => ndc,
+        };
+        union = Some(union.map_or(ndc, |u| [u[0].min(ndc[0]), u[1].min(ndc[1]), u[2].max(ndc[2]), u[3].max(ndc[3])]));
+    }
+    union.map(|u| [u[0].max(within[0]), u[1].max(within[1]), u[2].min(within[2]), u[3].min(within[3])])
+}
+
 /// NDC [x0, y0, x1, y1] → pixels (x, y, width, height), rounded outwards; `None` when empty.
-fn pixel_rect(ndc: [f32; 4], width: u32, height: u32) -> Option<[u32; 4]> {
+pub(crate) fn pixel_rect(ndc: [f32; 4], width: u32, height: u32) -> Option<[u32; 4]> {
     let (w, h) = (width as f32, height as f32);
     let x0 = ((ndc[0] + 1.0) * 0.5 * w).floor().clamp(0.0, w) as u32;
     let x1 = ((ndc[2] + 1.0) * 0.5 * w).ceil().clamp(0.0, w) as u32;

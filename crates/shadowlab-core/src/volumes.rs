@@ -74,6 +74,31 @@ pub fn face_signs(topo: &Topology, world: &[Vec3], light: &LightSource, two_side
         .collect()
 }
 
+/// Whether a point light lies inside the closed mesh `topo` placed at `world` (ray parity, with the
+/// watertight test of [`crate::bvh::PreparedRay`]). A one-sided closed caster around the light (a
+/// bulb in a box, a lamp in a closed shade) faces away from it everywhere, so by the facing rule it
+/// would occlude with no face and cast nothing; its shadow is everything outside it, which the
+/// caster's volume gets when it occludes with every face turned towards the light, as open meshes
+/// do.
+pub fn encloses_light(topo: &Topology, world: &[Vec3], light: &LightSource) -> bool {
+    let LightSource::Point(l) = *light else { return false };
+    let bounds = crate::Aabb::from_points(world.iter().copied());
+    if bounds.is_empty() || !bounds.contains(l) {
+        return false;
+    }
+    // An arbitrary direction unlikely to run along the mesh's edges or faces.
+    let dir = Vec3::new(0.5773, 0.5781, 0.5766).normalize();
+    let ray = crate::bvh::PreparedRay::new(l, dir, 0.0, f32::INFINITY);
+    let hits = topo
+        .triangles
+        .iter()
+        .zip(&topo.degenerate)
+        .filter(|(_, d)| !**d)
+        .filter(|(t, _)| ray.intersect(&t.map(|i| glam::Vec3A::from(world[i as usize]))).is_some())
+        .count();
+    hits % 2 == 1
+}
+
 /// Silhouette edges as `(a, b, count)`: `count` side quads along the directed welded edge a→b.
 pub fn silhouette(topo: &Topology, signs: &[i8]) -> Vec<(u32, u32, u32)> {
     let mut out = Vec::new();
@@ -122,6 +147,7 @@ pub fn shadow_volume(
     // A mirroring transform turns every face over: signs and walks stay in object-space winding,
     // and the world-space geometry built from them is turned back.
     let mirror = transform.matrix3.determinant() < 0.0;
+    let two_sided = two_sided || encloses_light(topo, &world, light);
     let signs = face_signs(topo, &world, light, two_sided, mirror);
     let mut v = ShadowVolume::default();
     let fin = |i: u32| world[i as usize].extend(1.0);
@@ -214,6 +240,7 @@ impl LightSource {
 pub fn crossings(topo: &Topology, transform: &Affine3A, light: &LightSource, two_sided: bool, p: Vec3) -> u32 {
     let world: Vec<Vec3> = topo.positions.iter().map(|&q| transform.transform_point3(q)).collect();
     let mirror = transform.matrix3.determinant() < 0.0;
+    let two_sided = two_sided || encloses_light(topo, &world, light);
     let signs = face_signs(topo, &world, light, two_sided, mirror);
     let (dir, len) = match *light {
         LightSource::Point(l) => ((l - p).normalize_or(Vec3::Y), p.distance(l)),

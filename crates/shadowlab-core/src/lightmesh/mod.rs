@@ -664,7 +664,9 @@ pub fn cut_with(scene: &Scene, index: usize, mode: Mode) -> Result<Pieces, Light
             continue;
         }
         let closed = topo.report().is_closed();
-        let two_sided = !closed || scene.material(inst.material).double_sided;
+        let two_sided = !closed
+            || scene.material(inst.material).double_sided
+            || crate::volumes::encloses_light(topo, &world, &source);
         let mirrored = inst.transform.matrix3.determinant() < 0.0;
         let signs = face_signs(topo, &world, &source, two_sided, mirrored);
         let edges: Vec<(u32, u32)> = silhouette(topo, &signs)

@@ -174,6 +174,17 @@ impl Caster {
             .collect()
     }
 
+    /// Whether a point light `source` lies inside this (closed) caster.
+    pub fn encloses(&self, topology: &VolumeTopology, source: &shadowlab_core::volumes::LightSource) -> bool {
+        let shadowlab_core::volumes::LightSource::Point(l) = *source else { return false };
+        if !self.bounds.contains(l) {
+            return false;
+        }
+        let topo = &topology.topologies[self.mesh];
+        let world: Vec<Vec3> = topo.positions.iter().map(|&p| self.transform.transform_point3(p)).collect();
+        shadowlab_core::volumes::encloses_light(topo, &world, source)
+    }
+
     /// `CASTER_*` flags of `extract.wgsl`.
     pub fn flags(&self) -> u32 {
         let mut flags = 0;

@@ -383,6 +383,13 @@ impl Store {
         for (s, source) in sources.iter().enumerate() {
             let light = source.to_vec4();
             for (c, &slot_index) in casters.iter().zip(&self.slot_of) {
+                // A one-sided closed caster around the light occludes with every face turned
+                // towards it (`shadowlab_core::volumes::encloses_light`).
+                let flags = if !c.two_sided && c.encloses(topology, source) {
+                    c.flags() | super::geometry::CASTER_TWO_SIDED
+                } else {
+                    c.flags()
+                };
                 let slot = self.slots[slot_index as usize];
                 let item = self.item(s as u32, slot_index);
                 let base = slot.base(s as u32);
@@ -391,7 +398,7 @@ impl Store {
                     f64::from(light.y),
                     f64::from(light.z),
                     f64::from(light.w),
-                    f64::from(c.flags()),
+                    f64::from(flags),
                     c.mesh as f64,
                     f64::from(base[0]),
                     f64::from(slot.capacity[0]),
@@ -416,7 +423,7 @@ impl Store {
                     light,
                     ranges: [m.first_face, m.faces, m.first_edge, m.edges],
                     // The work items are numbered by `dispatch`.
-                    work: [0, 0, item, c.flags()],
+                    work: [0, 0, item, flags],
                     base: [base[0], base[1], base[2], 0],
                     capacity: [slot.capacity[0], slot.capacity[1], slot.capacity[2], 0],
                 });

@@ -29,8 +29,11 @@ pub(super) const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Uno
 pub(super) struct MeshVolumes {
     /// Boundary edges (world positions).
     edges: Vec<(Vec3, Vec3)>,
-    /// The lit triangles, for the eye's parity.
+    /// The lit triangles, for the eye's count.
     triangles: Vec<[Vec3; 3]>,
+    /// The light the mesh was built for: while a rebuild for a moved light runs in the background,
+    /// the volumes stay those of the mesh shown, not a mix of old edges and the new light.
+    source: LightSource,
     vertices: wgpu::Buffer,
     /// Vertices drawn (6 per kept quad) and the stencil's start value, of the last plan.
     pub drawn: u32,
@@ -45,7 +48,7 @@ pub(super) struct Focus {
 }
 
 impl MeshVolumes {
-    pub fn new(device: &wgpu::Device, mesh: &LightMesh) -> Self {
+    pub fn new(device: &wgpu::Device, mesh: &LightMesh, source: LightSource) -> Self {
         // Undirected edge → uses, and its direction in the (first) triangle using it: the lit
         // triangles face the light counter-clockwise, so a boundary edge has its piece on the left.
         let mut uses: HashMap<(u32, u32), (u32, (u32, u32))> = HashMap::new();
@@ -74,7 +77,7 @@ impl MeshVolumes {
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Self { edges, triangles, vertices, drawn: 0, start: 0 }
+        Self { edges, triangles, source, vertices, drawn: 0, start: 0 }
     }
 
     pub fn bytes(&self) -> u64 {
@@ -86,10 +89,11 @@ impl MeshVolumes {
     }
 
     /// Culls the quads against `focus`, writes the kept ones and finds the stencil's start.
-    pub fn plan(&mut self, queue: &wgpu::Queue, light: &LightSource, focus: &Focus) {
+    pub fn plan(&mut self, queue: &wgpu::Queue, focus: &Focus) {
+        let light = self.source;
         let mut out: Vec<[f32; 4]> = Vec::with_capacity(self.edges.len() * 6);
         for &(a, b) in &self.edges {
-            let (da, db) = (light.extrude(a), light.extrude(b));
+            let (da, db) = (self.source.extrude(a), self.source.extrude(b));
             // Outside a plane: both ends outside and both extrusions leading further out.
             let outside = focus.planes.iter().any(|p| {
                 p.dot(a.extend(1.0)) < 0.0 && p.dot(b.extend(1.0)) < 0.0 && p.dot(da) <= 0.0 && p.dot(db) <= 0.0
@@ -106,7 +110,7 @@ impl MeshVolumes {
         if !out.is_empty() {
             queue.write_buffer(&self.vertices, 0, bytemuck::cast_slice(&out));
         }
-        self.start = self.eye_count(light, focus.eye);
+        self.start = self.eye_count(&light, focus.eye);
     }
 
     /// How many lit regions hold the eye: the lit triangles its segment to the light crosses

@@ -413,7 +413,7 @@ impl LightMeshTechnique {
     ) {
         self.mesh = Some(upload(&ctx.gpu.device, mesh, stats));
         if self.use_mesh_volumes {
-            self.mesh_volumes = Some(mesh_volumes::MeshVolumes::new(&ctx.gpu.device, mesh));
+            self.mesh_volumes = Some(mesh_volumes::MeshVolumes::new(&ctx.gpu.device, mesh, LightSource::of(ctx.light)));
         }
         self.from_file = from_file;
         if !from_file {
@@ -512,7 +512,7 @@ impl ShadowTechnique for LightMeshTechnique {
                 eye: cam.position.truncate(),
                 near_ndc_depth: if cam.depth.x == 0.0 { 1.0 } else { 0.0 },
             };
-            let spheres = if self.focus { volumes::focus_spheres(ctx.scene) } else { Vec::new() };
+            let spheres = if self.focus { volumes::focus_spheres(ctx.live) } else { Vec::new() };
             let light_ndc = match (ctx.light.position(), ctx.light.range) {
                 (Some(p), Some(r)) => match camera.sphere_rect(p, r) {
                     SphereRect::Rect(ndc) => Some(ndc),
@@ -532,7 +532,7 @@ impl ShadowTechnique for LightMeshTechnique {
                 // the light mesh leaves dark take the count too.
                 let planes: Vec<Vec4> = camera.planes(ndc)[..4].to_vec();
                 let focus = mesh_volumes::Focus { planes, eye: camera.eye };
-                mv.plan(&ctx.gpu.queue, &LightSource::of(ctx.light), &focus);
+                mv.plan(&ctx.gpu.queue, &focus);
                 let group = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("light mesh volumes"),
                     layout: &mesh_volumes::layout(ctx.shared),

@@ -728,15 +728,14 @@ fn caster_bounds(casters: &[Caster]) -> shadowlab_core::Aabb {
 
 /// Bounding spheres of the instances that are not static (dynamic and dragged ones): where static
 /// casters' shadows are not already in a light mesh.
-pub(crate) fn focus_spheres(scene: &shadowlab_core::Scene) -> Vec<(glam::Vec3, f32)> {
-    scene
+pub(crate) fn focus_spheres(live: &crate::live::LiveScene) -> Vec<(glam::Vec3, f32)> {
+    // The live scene keeps every instance's world bounds: nothing to recompute per frame.
+    live.scene()
         .instances
         .iter()
-        .filter(|i| i.mobility != shadowlab_core::Mobility::Static)
-        .map(|i| {
-            let b = scene.mesh(i.mesh).bounds().transformed(&i.transform);
-            (b.center(), b.diagonal() * 0.5 * 1.0001 + 1e-6)
-        })
+        .zip(live.instances())
+        .filter(|(i, _)| i.mobility != shadowlab_core::Mobility::Static)
+        .map(|(_, state)| (state.bounds.center(), state.bounds.diagonal() * 0.5 * 1.0001 + 1e-6))
         .collect()
 }
 
@@ -941,7 +940,7 @@ impl ShadowTechnique for Volumes {
             near_ndc_depth: if cam.depth.x == 0.0 { 1.0 } else { 0.0 },
         };
         if self.settings.focus {
-            self.focus_spheres = focus_spheres(ctx.scene);
+            self.focus_spheres = focus_spheres(ctx.live);
         }
         let frame = FrameView {
             camera: &camera,

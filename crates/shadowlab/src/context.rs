@@ -8,12 +8,29 @@ use std::sync::{Arc, Mutex};
 use crate::frame::{SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 
+/// The pixel rectangle a resolve covers (`Region` in `shaders/resolve.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct RegionUniform {
+    /// x, y: the first pixel; z, w: width and height.
+    pub rect: [u32; 4],
+}
+
+impl RegionUniform {
+    /// Every pixel of any layer.
+    pub fn whole() -> Self {
+        Self { rect: [0, 0, u32::MAX, u32::MAX] }
+    }
+}
+
 /// Resources shared by all techniques: samplers, layouts and a cache of compiled pipelines (so
 /// four lights with the same technique compile its shaders once).
 pub struct Shared {
     pub gpu: Gpu,
     /// Group 0 of visibility-resolve shaders (`shaders/resolve.wgsl`).
     pub resolve_layout: wgpu::BindGroupLayout,
+    /// The region uniform of a resolve over the whole layer (origin 0, unbounded size).
+    whole_region: wgpu::Buffer,
     /// Shadow maps are read through hardware comparison samplers (all backends but GL).
     pub hardware_compare: bool,
     /// Comparison samplers for shadow maps (reversed Z: lit when reference ≥ stored).
@@ -46,8 +63,12 @@ impl Shared {
                     },
                     count: None,
                 },
+                // The pixel region a resolve covers (`ResolveRegion`).
+                uniform_entry(5, wgpu::ShaderStages::COMPUTE),
             ],
         });
+        let whole_region =
+            crate::util::uniform_buffer(device, "whole region", bytemuck::bytes_of(&RegionUniform::whole()));
         let compare = |filter| {
             device.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("shadow compare"),
@@ -62,6 +83,7 @@ impl Shared {
         Self {
             gpu: gpu.clone(),
             resolve_layout,
+            whole_region,
             // wgpu's GL backend returns 0 from comparison samples of depth arrays (seen on Mesa).
             hardware_compare: gpu.adapter.backend != "gl",
             compare_nearest: compare(wgpu::FilterMode::Nearest),
@@ -73,12 +95,25 @@ impl Shared {
         }
     }
 
-    /// The group-0 bind group of a resolve shader writing `out`.
+    /// The group-0 bind group of a resolve shader writing `out`, over the whole layer.
     pub fn resolve_bind_group(
         &self,
         surface: &SurfaceInputs,
         light: &wgpu::Buffer,
         out: &VisibilityLayer,
+    ) -> wgpu::BindGroup {
+        self.resolve_bind_group_in(surface, light, out, &self.whole_region)
+    }
+
+    /// The group-0 bind group of a resolve shader writing `out` over the region whose
+    /// [`RegionUniform`] is in `region` (`region_pixel` in `shaders/resolve.wgsl` offsets the
+    /// invocation ids by its origin, `in_frame` keeps to its size).
+    pub fn resolve_bind_group_in(
+        &self,
+        surface: &SurfaceInputs,
+        light: &wgpu::Buffer,
+        out: &VisibilityLayer,
+        region: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("resolve group 0"),
@@ -89,6 +124,7 @@ impl Shared {
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&surface.normal) },
                 wgpu::BindGroupEntry { binding: 3, resource: light.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&out.view) },
+                wgpu::BindGroupEntry { binding: 5, resource: region.as_entire_binding() },
             ],
         })
     }

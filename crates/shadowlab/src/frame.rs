@@ -3,7 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
-use shadowlab_core::{Light, LightKind, View};
+use shadowlab_core::{Aabb, Light, LightKind, View};
 
 /// The camera as shaders see it (`shaders/common.wgsl`, `struct Camera`).
 #[repr(C)]
@@ -61,6 +61,76 @@ impl CameraUniform {
     /// Width over height.
     pub fn aspect(&self) -> f32 {
         self.size.x / self.size.y.max(1.0)
+    }
+
+    /// The pixels whose surface a box may cover: its corners projected (relative to the eye, as
+    /// the shaders reconstruct positions), rounded outwards and one pixel wider for the
+    /// rasteriser's rounding. A box reaching behind the eye's plane may cover any pixel.
+    pub fn footprint(&self, b: &Aabb) -> Footprint {
+        if b.is_empty() {
+            return Footprint::Nothing;
+        }
+        self.footprint_of(b.corners())
+    }
+
+    /// The pixels the convex hull of `points` may cover ([`CameraUniform::footprint`]'s rules).
+    pub fn footprint_of(&self, points: impl IntoIterator<Item = Vec3>) -> Footprint {
+        let (width, height) = (self.size.x.max(0.0) as u32, self.size.y.max(0.0) as u32);
+        let to_clip = self.inv_view_proj_rel.inverse();
+        let eye = self.position.truncate();
+        let (mut lo, mut hi) = (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY));
+        for p in points {
+            let clip = to_clip * (p - eye).extend(1.0);
+            // Near the eye's plane the projection explodes (and flips behind it); NaN fails too.
+            let ahead = clip.w > 1e-6 * clip.truncate().length().max(1.0);
+            if !ahead {
+                return Footprint::Whole;
+            }
+            let ndc = glam::Vec2::new(clip.x, clip.y) / clip.w;
+            lo = lo.min(ndc);
+            hi = hi.max(ndc);
+        }
+        if lo.x > hi.x {
+            return Footprint::Nothing;
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Footprint::Whole;
+        }
+        let (w, h) = (width as f32, height as f32);
+        let x0 = ((lo.x + 1.0) * 0.5 * w).floor() - 1.0;
+        let x1 = ((hi.x + 1.0) * 0.5 * w).ceil() + 1.0;
+        let y0 = ((1.0 - hi.y) * 0.5 * h).floor() - 1.0;
+        let y1 = ((1.0 - lo.y) * 0.5 * h).ceil() + 1.0;
+        let (x0, x1, y0, y1) = (x0.clamp(0.0, w), x1.clamp(0.0, w), y0.clamp(0.0, h), y1.clamp(0.0, h));
+        if x1 <= x0 || y1 <= y0 {
+            return Footprint::Nothing;
+        }
+        Footprint::Rect([x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32])
+    }
+}
+
+/// Where on screen something may be ([`CameraUniform::footprint`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Footprint {
+    Nothing,
+    /// x, y, width, height in pixels.
+    Rect([u32; 4]),
+    Whole,
+}
+
+impl Footprint {
+    /// The smallest footprint holding both.
+    pub fn union(self, other: Footprint) -> Footprint {
+        match (self, other) {
+            (Footprint::Whole, _) | (_, Footprint::Whole) => Footprint::Whole,
+            (Footprint::Nothing, f) | (f, Footprint::Nothing) => f,
+            (Footprint::Rect(a), Footprint::Rect(b)) => {
+                let (x0, y0) = (a[0].min(b[0]), a[1].min(b[1]));
+                let x1 = (a[0] + a[2]).max(b[0] + b[2]);
+                let y1 = (a[1] + a[3]).max(b[1] + b[3]);
+                Footprint::Rect([x0, y0, x1 - x0, y1 - y0])
+            }
+        }
     }
 }
 
@@ -195,5 +265,49 @@ impl VisibilityLayer {
     pub fn bytes(&self) -> u64 {
         let s = self.texture.size();
         u64::from(s.width) * u64::from(s.height) * 4
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera() -> CameraUniform {
+        let view = View {
+            name: "test".into(),
+            position: Vec3::new(0.0, 1.0, 5.0),
+            target: Vec3::new(0.0, 1.0, 0.0),
+            up: Vec3::Y,
+            fov_y: 60f32.to_radians(),
+            near: 0.1,
+            far: 100.0,
+        };
+        CameraUniform::from_view(&view, 100, 80)
+    }
+
+    #[test]
+    fn footprints_bound_what_a_box_covers() {
+        let c = camera();
+        // A small box on the axis: a rectangle around the centre pixel (50, 40), one pixel wider.
+        let b = Aabb::new(Vec3::new(-0.1, 0.9, -0.1), Vec3::new(0.1, 1.1, 0.1));
+        let Footprint::Rect([x, y, w, h]) = c.footprint(&b) else { panic!("{:?}", c.footprint(&b)) };
+        assert!(x < 50 && x + w > 50 && y < 40 && y + h > 40, "{:?}", [x, y, w, h]);
+        // Its half-width at distance 4.9..5.1: 0.1 / (5 · tan 30°) of 40 pixels ≈ 1.4 px; with the
+        // pixel of padding and outward rounding, at most 10 pixels across.
+        assert!(w <= 10 && h <= 10, "{:?}", [x, y, w, h]);
+        // Wholly outside the view: nothing; reaching behind the eye: anything.
+        assert_eq!(c.footprint(&Aabb::new(Vec3::new(50.0, 0.0, 0.0), Vec3::new(51.0, 1.0, 1.0))), Footprint::Nothing);
+        assert_eq!(c.footprint(&Aabb::new(Vec3::new(-1.0, 0.0, 4.0), Vec3::new(1.0, 2.0, 6.0))), Footprint::Whole);
+        assert_eq!(c.footprint(&Aabb::EMPTY), Footprint::Nothing);
+        assert_eq!(c.footprint_of([Vec3::new(0.0, 1.0, f32::NAN)]), Footprint::Whole);
+    }
+
+    #[test]
+    fn footprints_unite() {
+        let (a, b) = (Footprint::Rect([0, 0, 2, 2]), Footprint::Rect([5, 1, 1, 4]));
+        assert_eq!(a.union(b), Footprint::Rect([0, 0, 6, 5]));
+        assert_eq!(a.union(Footprint::Nothing), a);
+        assert_eq!(Footprint::Nothing.union(b), b);
+        assert_eq!(a.union(Footprint::Whole), Footprint::Whole);
     }
 }

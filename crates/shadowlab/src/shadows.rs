@@ -11,16 +11,16 @@
 use shadowlab_core::{LightId, Scene};
 
 use crate::auto::Preference;
-use crate::context::Shared;
-use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VisibilityLayer};
+use crate::context::{RegionUniform, Shared};
+use crate::frame::{CameraUniform, Footprint, LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
 use crate::live::scheduler::{Adaptation, Budget, CostModel, Step, UnitCounts, screen_share};
 use crate::live::temporary::TemporaryShadows;
 use crate::live::validity::screen_signature;
-use crate::live::{Applied, Edit, EditError, EditKind, LiveScene, ShadowCache, Signature, Work};
+use crate::live::{Applied, Edit, EditError, EditKind, InstanceState, LiveScene, ShadowCache, Signature, Work};
 use crate::registry::TechniqueSpec;
-use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueStats};
+use crate::technique::{FrameContext, ResolveRegion, ShadowTechnique, TechniqueError, TechniqueStats};
 use crate::timing::GpuTimer;
 use crate::util;
 
@@ -47,9 +47,12 @@ pub(crate) struct LightShadow {
     pub light_buffer: wgpu::Buffer,
     /// The light's colour version its uniform was written from (emitter edits bump it too).
     uniform_version: u64,
-    /// What the layer was last resolved from ([`screen_signature`], and the rung): with it
-    /// unchanged and nothing re-rendered, the layer still holds (a still frame costs no lookup).
-    resolved: Option<(Signature, usize)>,
+    /// What the layer was last resolved from: with it unchanged and nothing re-rendered, the layer
+    /// still holds (a still frame costs no lookup), and with only dragged objects moved, all of it
+    /// but their footprints.
+    resolved: Option<Resolved>,
+    /// The region uniform of this light's resolves limited to a footprint.
+    region_buffer: wgpu::Buffer,
     /// The temporary (dragged) objects' maps for this light: each light its own, since every
     /// light's views are written before the frame's commands run.
     temporary: TemporaryShadows,
@@ -59,6 +62,40 @@ pub(crate) struct LightShadow {
     /// upgrades (see [`ShadowTechnique::progress`]); and the emitter samples behind it.
     level: u32,
     samples: u32,
+}
+
+/// What a light's layer was resolved from.
+#[derive(Debug, Clone, PartialEq)]
+struct Resolved {
+    /// [`screen_signature`] (the light, the surface, every instance edit but dragged objects'
+    /// moves) and the rung shown.
+    key: (Signature, usize),
+    /// The dragged objects then (ids, versions, bounds).
+    temporaries: Vec<InstanceState>,
+    /// Whether some of them cast (then the technique wrote the light's layer before dragging
+    /// and the temporary pass multiplied their shadows in).
+    casting: bool,
+}
+
+/// What of a light's layer must be resolved again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Redo {
+    Nothing,
+    Region([u32; 4]),
+    Whole,
+}
+
+/// The pixels dragged objects covered (`before`) or cover (`now`): the footprints of the objects
+/// that moved; any object picked up or released: every pixel.
+fn moved_footprint(camera: &CameraUniform, before: &[InstanceState], now: &[InstanceState]) -> Footprint {
+    if before.len() != now.len() || before.iter().zip(now).any(|(a, b)| a.id != b.id) {
+        return Footprint::Whole;
+    }
+    before
+        .iter()
+        .zip(now)
+        .filter(|(a, b)| a.version != b.version)
+        .fold(Footprint::Nothing, |f, (a, b)| f.union(camera.footprint(&a.bounds)).union(camera.footprint(&b.bounds)))
 }
 
 impl LightShadow {
@@ -262,6 +299,11 @@ impl Shadows {
             light_buffer,
             uniform_version,
             resolved: None,
+            region_buffer: util::uniform_buffer(
+                &self.shared.gpu.device,
+                "resolve region",
+                bytemuck::bytes_of(&RegionUniform::whole()),
+            ),
             temporary: TemporaryShadows::new(&self.shared),
             unshadowed,
             level: 0,
@@ -518,27 +560,54 @@ impl Shadows {
                     owner: rung.owner,
                     budget: &mut budget,
                     costs: &self.costs,
+                    region: None,
                 };
                 let before = ctx.cache.work;
                 rung.technique.prepare(&mut ctx)?;
                 let w = ctx.cache.work;
-                rebuilt[k] |= (w.map_views, w.lightmap_samples, w.volume_objects, w.temporary_views, w.light_meshes)
-                    != (
-                        before.map_views,
-                        before.lightmap_samples,
-                        before.volume_objects,
-                        before.temporary_views,
-                        before.light_meshes,
-                    );
+                rebuilt[k] |= (
+                    w.map_views,
+                    w.composite_views,
+                    w.lightmap_samples,
+                    w.volume_objects,
+                    w.temporary_views,
+                    w.light_meshes,
+                ) != (
+                    before.map_views,
+                    before.composite_views,
+                    before.lightmap_samples,
+                    before.volume_objects,
+                    before.temporary_views,
+                    before.light_meshes,
+                );
             }
         }
-        let temporary = TemporaryShadows::active(&self.live);
+        let casting = TemporaryShadows::active(&self.live);
+        let temporaries = self.live.temporary_states();
         for (k, s) in self.lights.iter_mut().enumerate() {
             let Some(light) = self.live.light(s.light) else { continue };
             // The best allowed rung with something complete to show; none: unshadowed.
             let shown = (0..s.rungs.len().min(rungs)).rev().find(|&r| s.rungs[r].technique.shown());
-            let now = (screen_signature(&self.live, s.light, surface.generation()), shown.unwrap_or(usize::MAX));
-            if self.cache.enabled() && !rebuilt[k] && !temporary && s.resolved.as_ref() == Some(&now) {
+            let key = (screen_signature(&self.live, s.light, surface.generation()), shown.unwrap_or(usize::MAX));
+            let per_pixel = match shown {
+                Some(r) => s.rungs[r].technique.resolves_per_pixel(),
+                None => s.unshadowed.resolves_per_pixel(),
+            };
+            // Only dragged objects moved since the layer was resolved: every pixel but their
+            // footprints holds (the validity table's `Footprint`), and the dragged objects' own
+            // shadows are redone whenever they moved.
+            let (redo, moved) = match &s.resolved {
+                Some(r) if self.cache.enabled() && !rebuilt[k] && r.key == key && r.casting == casting => {
+                    let redo = match moved_footprint(&surface.camera, &r.temporaries, &temporaries) {
+                        Footprint::Nothing => Redo::Nothing,
+                        Footprint::Rect(rect) if per_pixel => Redo::Region(rect),
+                        _ => Redo::Whole,
+                    };
+                    (redo, r.temporaries != temporaries)
+                }
+                _ => (Redo::Whole, true),
+            };
+            if redo == Redo::Nothing && !(casting && moved) {
                 continue;
             }
             self.cache.work.resolves += 1;
@@ -551,8 +620,16 @@ impl Shadows {
                 None => (0, 0),
             };
             (s.level, s.samples) = (level, samples);
-            s.resolved = shown.map(|_| now);
+            s.resolved = shown.map(|_| Resolved { key, temporaries: temporaries.clone(), casting });
             let owner = shown.map_or(0, |r| s.rungs[r].owner);
+            let region = match redo {
+                Redo::Region(rect) => {
+                    gpu.queue.write_buffer(&s.region_buffer, 0, bytemuck::bytes_of(&RegionUniform { rect }));
+                    self.cache.work.region_resolves += 1;
+                    Some(ResolveRegion { rect, buffer: &s.region_buffer })
+                }
+                _ => None,
+            };
             let mut ctx = FrameContext {
                 gpu: &gpu,
                 shared: &self.shared,
@@ -570,14 +647,20 @@ impl Shadows {
                 owner,
                 budget: &mut budget,
                 costs: &self.costs,
+                region,
             };
             let technique: &mut dyn ShadowTechnique = match shown {
                 Some(r) => s.rungs[r].technique.as_mut(),
                 None => s.unshadowed.as_mut(),
             };
-            if temporary {
+            if casting {
+                // The technique's own layer is kept apart (dragged objects in none of its data);
+                // the dragged objects' shadows are multiplied in each time they move.
                 let raw = s.temporary.raw_layer(&self.shared, surface.width, surface.height);
-                technique.resolve(&mut ctx, raw);
+                if redo != Redo::Nothing {
+                    technique.resolve(&mut ctx, raw);
+                }
+                ctx.region = None;
                 s.temporary.apply(&mut ctx, &s.layer);
             } else {
                 technique.resolve(&mut ctx, &s.layer);

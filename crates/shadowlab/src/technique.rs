@@ -77,9 +77,51 @@ pub struct FrameContext<'a> {
     pub budget: &'a mut Budget,
     /// Predicted costs of units of work.
     pub costs: &'a CostModel,
+    /// Set only for a technique that [resolves per pixel](ShadowTechnique::resolves_per_pixel):
+    /// the pixels whose surface may have changed since it last resolved into this same layer
+    /// with the same prepared data (a dragged object's footprint, old and new). Its resolve may
+    /// keep to them: every other pixel of the layer still holds its right value.
+    pub region: Option<ResolveRegion<'a>>,
+}
+
+/// The part of a layer a resolve has to redo ([`FrameContext::region`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ResolveRegion<'a> {
+    /// x, y, width, height in pixels; never empty.
+    pub rect: [u32; 4],
+    /// The rectangle as a `RegionUniform` (binding 5 of the resolve group).
+    pub buffer: &'a wgpu::Buffer,
+}
+
+/// The overlap of two pixel rectangles (x, y, width, height); `None` when empty.
+pub fn intersect_rects(a: [u32; 4], b: [u32; 4]) -> Option<[u32; 4]> {
+    let (x0, y0) = (a[0].max(b[0]), a[1].max(b[1]));
+    let x1 = (u64::from(a[0]) + u64::from(a[2])).min(u64::from(b[0]) + u64::from(b[2]));
+    let y1 = (u64::from(a[1]) + u64::from(a[3])).min(u64::from(b[1]) + u64::from(b[3]));
+    (x1 > u64::from(x0) && y1 > u64::from(y0))
+        .then(|| [x0, y0, (x1 - u64::from(x0)) as u32, (y1 - u64::from(y0)) as u32])
 }
 
 impl FrameContext<'_> {
+    /// The pixels this resolve covers: the region, or the whole surface.
+    pub fn resolve_rect(&self) -> [u32; 4] {
+        self.region.map_or([0, 0, self.surface.width, self.surface.height], |r| r.rect)
+    }
+
+    /// The group 0 of a resolve shader writing `out` over [`FrameContext::resolve_rect`]: with it,
+    /// dispatch through [`dispatch_resolve_in`] and take pixels from `region_pixel`.
+    pub fn resolve_group(&self, out: &VisibilityLayer) -> wgpu::BindGroup {
+        match &self.region {
+            Some(r) => self.shared.resolve_bind_group_in(self.surface, self.light_buffer, out, r.buffer),
+            None => self.shared.resolve_bind_group(self.surface, self.light_buffer, out),
+        }
+    }
+
+    /// The region's rectangle, if the resolve has one (for [`scissor_to`]).
+    pub fn region_rect(&self) -> Option<[u32; 4]> {
+        self.region.map(|r| r.rect)
+    }
+
     /// Charges `count` units of `kind`, each of `size` (texels, faces), to the frame's budget:
     /// false when they do not fit (the work is left for a later frame). Units that run are
     /// counted for the cost model, which learns each kind and size's cost from the frame's time.
@@ -107,9 +149,16 @@ pub trait ShadowTechnique: Send {
     fn params(&self) -> &ParamSet;
     /// Renders whatever the technique needs before resolving (shadow maps, volumes).
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError>;
-    /// Writes V for every pixel of the surface into `out`.
+    /// Writes V for every pixel of the surface into `out` (with [`FrameContext::region`]: at least
+    /// every pixel of the region).
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer);
     fn stats(&self) -> TechniqueStats;
+    /// Whether each pixel's V depends only on that pixel's surface and what `prepare` left (no
+    /// screen-space filtering, no neighbours): then a frame in which only some pixels' surface
+    /// changed may resolve just those ([`FrameContext::region`]), the rest of the layer kept.
+    fn resolves_per_pixel(&self) -> bool {
+        false
+    }
     /// Whether the technique has a complete state to show (its maps, volumes and light maps all
     /// filled for some state of the scene). While filling is spread over frames from nothing, it
     /// has not, and the light is shown unshadowed (Toromanoff's all-or-nothing rule).
@@ -198,12 +247,42 @@ impl TechniqueInfo {
     }
 }
 
-/// Dispatches a resolve shader over the whole surface (8 × 8 workgroups).
-pub fn dispatch_resolve(
+/// Restricts a render pass to a resolve's `region` ([`FrameContext::region_rect`]), within
+/// `within` when given (a technique's own scissor); false when nothing is left to draw.
+pub fn scissor_to(pass: &mut wgpu::RenderPass<'_>, region: Option<[u32; 4]>, within: Option<[u32; 4]>) -> bool {
+    let rect = match (region, within) {
+        (Some(r), Some(w)) => intersect_rects(r, w),
+        (r, w) => r.or(w),
+    };
+    match rect {
+        Some([x, y, w, h]) => {
+            pass.set_scissor_rect(x, y, w, h);
+            true
+        }
+        None => region.is_none() && within.is_none(),
+    }
+}
+
+/// Dispatches a resolve shader over [`FrameContext::resolve_rect`] (8 × 8 workgroups); its group
+/// 0 must be [`FrameContext::resolve_group`] and its pixels `region_pixel`'s.
+pub fn dispatch_resolve_in(
     ctx: &mut FrameContext<'_>,
     label: &str,
     pipeline: &wgpu::ComputePipeline,
     groups: &[&wgpu::BindGroup],
+) {
+    let rect = ctx.resolve_rect();
+    dispatch_resolve_rect(ctx, label, pipeline, groups, rect);
+}
+
+/// Dispatches a resolve shader over `rect` (x, y, width, height); its group 0 must hold that
+/// rectangle's `RegionUniform` and its pixels be `region_pixel`'s.
+pub fn dispatch_resolve_rect(
+    ctx: &mut FrameContext<'_>,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    rect: [u32; 4],
 ) {
     let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, crate::timing::PassKind::Visibility);
     let mut pass = ctx
@@ -213,5 +292,16 @@ pub fn dispatch_resolve(
     for (i, g) in groups.iter().enumerate() {
         pass.set_bind_group(i as u32, Some(*g), &[]);
     }
-    pass.dispatch_workgroups(crate::util::groups(ctx.surface.width, 8), crate::util::groups(ctx.surface.height, 8), 1);
+    pass.dispatch_workgroups(crate::util::groups(rect[2], 8), crate::util::groups(rect[3], 8), 1);
+}
+
+/// Dispatches a resolve shader over the whole surface (8 × 8 workgroups).
+pub fn dispatch_resolve(
+    ctx: &mut FrameContext<'_>,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let rect = [0, 0, ctx.surface.width, ctx.surface.height];
+    dispatch_resolve_rect(ctx, label, pipeline, groups, rect);
 }

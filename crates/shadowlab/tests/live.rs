@@ -282,6 +282,60 @@ fn volumes_re_extract_only_the_objects_and_lights_that_changed() {
     assert_eq!(w.volume_objects, 0, "a camera move extracts {w:?}");
 }
 
+/// A drag redoes only the dragged object's footprint (the validity table's `Footprint`): with a
+/// technique that resolves per pixel, each step re-resolves a rectangle, the rest of the layer
+/// kept; a step that only turns the object (same bounds) still counts; holding it still redoes
+/// nothing; a camera move mid-drag redoes everything. After every step the live engine equals a
+/// fresh one.
+#[test]
+fn a_drag_redoes_only_the_dragged_objects_footprint() {
+    for spec in ["volumes", "hard:map_size=512", "pcf:map_size=512", "lightmaps:samples=4,texel=0.05,rest=volumes"] {
+        let mut live = Live::new(load_scene("room").unwrap().scene, spec);
+        live.check("first frame");
+        let chair = live.id("chair east");
+        live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+        live.check("picked up");
+        let lights = live.renderer.shadows.shadowed_lights().count() as u32;
+        // Steps longer than the chair, so that its old footprint is not inside the new one.
+        for (k, by) in
+            [Vec3::new(-0.7, 0.0, 0.3), Vec3::new(0.0, 0.0, -0.7), Vec3::new(0.6, 0.0, 0.2)].into_iter().enumerate()
+        {
+            let t = transform_of(&live, chair);
+            live.renderer.apply(Edit::Transform { instance: chair, transform: moved(t, by) }).unwrap();
+            let w = live.check(&format!("dragged {k}"));
+            // Every light re-resolves its footprint only (the chair is on screen from the default view).
+            assert_eq!((w.resolves, w.region_resolves), (lights, lights), "{spec}: step {k}: {w:?}");
+        }
+        // Half a turn about the chair's vertical axis through its bounds' centre: the same bounds
+        // (a box turned by 180°), another surface.
+        let t = transform_of(&live, chair);
+        let c: Vec3 = live.renderer.shadows.live().instances()
+            [live.renderer.shadows.live().instance_index(chair).unwrap()]
+        .bounds
+        .center();
+        let turn = Affine3A::from_translation(c)
+            * Affine3A::from_rotation_y(std::f32::consts::PI)
+            * Affine3A::from_translation(-c);
+        live.renderer.apply(Edit::Transform { instance: chair, transform: turn * t }).unwrap();
+        let w = live.check("turned in place");
+        assert_eq!(w.region_resolves, lights, "{spec}: a turn in place is redone: {w:?}");
+        let w = live.check("held still");
+        assert_eq!(w.resolves, 0, "{spec}: holding the chair still redoes nothing: {w:?}");
+        let view = live.renderer.scene().view("table").unwrap().clone();
+        live.renderer.set_view(&view);
+        let t = transform_of(&live, chair);
+        live.renderer
+            .apply(Edit::Transform { instance: chair, transform: moved(t, Vec3::new(0.05, 0.0, 0.0)) })
+            .unwrap();
+        let w = live.check("camera moved while dragging");
+        assert_eq!((w.resolves, w.region_resolves), (lights, 0), "{spec}: a camera move redoes every pixel: {w:?}");
+        live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Dynamic }).unwrap();
+        let w = live.check("released");
+        assert_eq!(w.region_resolves, 0, "{spec}: a release redoes every pixel: {w:?}");
+        println!("{spec}: ok");
+    }
+}
+
 /// Parameters change in place (the viewer's sliders): a technique that keeps the maps (`hard` →
 /// `pcf`, a lookup offset, a kernel) re-renders no map view; one that changes what the maps hold
 /// (slope bias) re-renders them in the same memory; another map size reallocates. After each, the

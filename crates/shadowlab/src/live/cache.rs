@@ -49,6 +49,8 @@ pub struct Work {
     /// Visibility layers written (a light whose maps, scene and surface did not change keeps its
     /// layer of the last frame).
     pub resolves: u32,
+    /// Of those, resolves limited to dragged objects' footprints (the rest of the layer kept).
+    pub region_resolves: u32,
     /// Units left for later frames by the budget.
     pub deferred: u32,
     /// The frame's budget for fills (infinite without a target frame time) and what it planned.
@@ -58,7 +60,7 @@ pub struct Work {
 
 impl Work {
     /// `(name, count)` of every counter, for reports.
-    pub fn counts(&self) -> [(&'static str, u32); 9] {
+    pub fn counts(&self) -> [(&'static str, u32); 10] {
         [
             ("map_views", self.map_views),
             ("composite_views", self.composite_views),
@@ -67,6 +69,7 @@ impl Work {
             ("temporary_views", self.temporary_views),
             ("reused", self.reused),
             ("resolves", self.resolves),
+            ("region_resolves", self.region_resolves),
             ("deferred", self.deferred),
             ("light_meshes", self.light_meshes),
         ]

@@ -49,6 +49,9 @@ pub struct LiveScene {
     epoch: u64,
     /// Bumped by every edit of an instance (what the surface of the next frame may show).
     instances_epoch: u64,
+    /// Bumped by every edit of an instance but a temporary one's move: a visibility layer
+    /// resolved at the same value differs from a fresh one only in dragged objects' footprints.
+    permanent_epoch: u64,
     /// Bounds of every instance but temporary ones: what light views are fitted to.
     fit_bounds: Aabb,
     fit_caster_bounds: Aabb,
@@ -86,6 +89,7 @@ impl LiveScene {
             next_light,
             epoch: 0,
             instances_epoch: 0,
+            permanent_epoch: 0,
             fit_bounds: Aabb::EMPTY,
             fit_caster_bounds: Aabb::EMPTY,
         };
@@ -106,6 +110,22 @@ impl LiveScene {
     /// sees may have changed.
     pub fn instances_epoch(&self) -> u64 {
         self.instances_epoch
+    }
+
+    /// Changes with every instance edit but a temporary (dragged) instance's move.
+    pub fn permanent_epoch(&self) -> u64 {
+        self.permanent_epoch
+    }
+
+    /// The temporary (dragged) instances, in scene order: their states (id, version, bounds).
+    pub fn temporary_states(&self) -> Vec<InstanceState> {
+        self.scene
+            .instances
+            .iter()
+            .zip(&self.instances)
+            .filter(|(i, _)| i.mobility == Mobility::Temporary)
+            .map(|(_, s)| *s)
+            .collect()
     }
 
     pub fn instances(&self) -> &[InstanceState] {
@@ -189,6 +209,9 @@ impl LiveScene {
         self.epoch += 1;
         if applied.instance.is_some() {
             self.instances_epoch += 1;
+            if applied.kind != EditKind::MoveInstance(Mobility::Temporary) {
+                self.permanent_epoch += 1;
+            }
         }
         self.refit();
         Ok(applied)

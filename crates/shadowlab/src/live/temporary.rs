@@ -11,14 +11,15 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
+use shadowlab_core::convex::{ConvexBody, Plane};
 use shadowlab_core::lightspace::{ShadowView, light_frusta};
 use shadowlab_core::{Aabb, Mobility};
 
 use super::scene::LiveScene;
-use crate::context::{Shared, UNFILTERED, texture_entry, uniform_entry};
-use crate::frame::VisibilityLayer;
+use crate::context::{RegionUniform, Shared, UNFILTERED, texture_entry, uniform_entry};
+use crate::frame::{CameraUniform, Footprint, VisibilityLayer};
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
-use crate::technique::{FrameContext, dispatch_resolve};
+use crate::technique::{FrameContext, dispatch_resolve_rect};
 
 /// Texels per side of a temporary object's map (the object alone fills it) for an output of
 /// `width × height`: twice the output's larger side, as a power of two within 256..=1024. The
@@ -48,6 +49,8 @@ pub struct TemporaryShadows {
     maps: Option<(ShadowMapArray, wgpu::BindGroup)>,
     bias: wgpu::Buffer,
     counts: wgpu::Buffer,
+    /// The `RegionUniform` of the pixels the objects' shadows may fall on.
+    region: wgpu::Buffer,
 }
 
 impl TemporaryShadows {
@@ -62,6 +65,11 @@ impl TemporaryShadows {
                 device,
                 "temporary counts",
                 bytemuck::bytes_of(&TemporaryUniform { counts: [0; 4] }),
+            ),
+            region: crate::util::uniform_buffer(
+                device,
+                "temporary region",
+                bytemuck::bytes_of(&RegionUniform::whole()),
             ),
         }
     }
@@ -86,16 +94,36 @@ impl TemporaryShadows {
     }
 
     /// Renders the temporary objects' maps for the context's light and writes `out` = the raw
-    /// layer × their shadows.
+    /// layer × their shadows. Only the pixels their shadows may fall on are looked up
+    /// ([`shadow_footprint`]); the others are copied from the raw layer.
     pub fn apply(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let shared = ctx.shared;
         let size = map_size(ctx.surface.width, ctx.surface.height);
         let mut views: Vec<ShadowView> = Vec::new();
+        let mut receivers = ctx.live.fit_bounds();
         for (inst, state) in ctx.live.scene().instances.iter().zip(ctx.live.instances()) {
-            if inst.mobility == Mobility::Temporary && inst.casts_shadows {
-                views.extend(light_frusta(ctx.light, &padded(&state.bounds), size).views);
+            if inst.mobility == Mobility::Temporary {
+                receivers = receivers.union(&state.bounds);
+                if inst.casts_shadows {
+                    views.extend(light_frusta(ctx.light, &padded(&state.bounds), size).views);
+                }
             }
         }
+        let footprint = views.iter().fold(Footprint::Nothing, |f, v| {
+            f.union(shadow_footprint(&ctx.surface.camera, v, size, &padded(&receivers)))
+        });
+        let raw = self.raw.as_ref().expect("raw_layer comes first");
+        let rect = match footprint {
+            Footprint::Whole => [0, 0, ctx.surface.width, ctx.surface.height],
+            Footprint::Nothing | Footprint::Rect(_) => {
+                let extent = raw.texture.size();
+                ctx.encoder.copy_texture_to_texture(raw.texture.as_image_copy(), out.texture.as_image_copy(), extent);
+                match footprint {
+                    Footprint::Rect(rect) => rect,
+                    _ => return,
+                }
+            }
+        };
         let n = views.len() as u32;
         if self.maps.as_ref().is_none_or(|(m, _)| m.layers < n || m.size != size) {
             // Room for views in steps of eight, so that objects picked up and released in turn do
@@ -115,7 +143,7 @@ impl TemporaryShadows {
         }
         ctx.cache.work.temporary_views += n;
         ctx.gpu.queue.write_buffer(&self.counts, 0, bytemuck::bytes_of(&TemporaryUniform { counts: [n, 0, 0, 0] }));
-        let raw = self.raw.as_ref().expect("raw_layer comes first");
+        ctx.gpu.queue.write_buffer(&self.region, 0, bytemuck::bytes_of(&RegionUniform { rect }));
         let device = &shared.gpu.device;
         let own = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("temporary"),
@@ -132,9 +160,26 @@ impl TemporaryShadows {
             &[&lookup_layout(shared), &layout(shared)],
             &[],
         );
-        let group0 = shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(ctx, "temporary objects", &pipeline, &[&group0, group, &own]);
+        let group0 = shared.resolve_bind_group_in(ctx.surface, ctx.light_buffer, out, &self.region);
+        dispatch_resolve_rect(ctx, "temporary objects", &pipeline, &[&group0, group, &own], rect);
     }
+}
+
+/// The pixels a temporary object's map `view` (of `size` texels) may darken: the receivers' box
+/// (every instance's bounds) cut by the view's side planes, two texels wider than the window
+/// (the lookup's normal offset moves points by 0.3 texels), projected. A pixel outside sees a
+/// point the lookup skips (outside the window), so the raw visibility stands there.
+fn shadow_footprint(camera: &CameraUniform, view: &ShadowView, size: u32, receivers: &Aabb) -> Footprint {
+    let m = view.view_projection.transpose();
+    let (x, y, w) = (m.x_axis, m.y_axis, m.w_axis * (1.0 + 4.0 / size as f32));
+    let mut body = ConvexBody::from_aabb(receivers);
+    for row in [w + x, w - x, w + y, w - y] {
+        body = body.clip(&Plane { n: row.truncate(), d: row.w });
+        if body.is_empty() {
+            return Footprint::Nothing;
+        }
+    }
+    camera.footprint_of(body.points())
 }
 
 /// An object's bounds with a little room, so that its silhouette never touches the map's border.

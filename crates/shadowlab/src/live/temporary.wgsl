@@ -14,11 +14,12 @@ struct Temporary {
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
+    let pixel = region_pixel(id);
+    if (!in_frame(pixel)) {
         return;
     }
-    var v = textureLoad(raw_visibility, vec2<i32>(id.xy), 0).r;
-    let s = load_surface(id.xy);
+    var v = textureLoad(raw_visibility, vec2<i32>(pixel), 0).r;
+    let s = load_surface(pixel);
     if (s.relevant && v > 0.0) {
         let l = light_vector(light, s.p).xyz;
         for (var k = 0u; k < temporary.counts.x; k = k + 1u) {
@@ -34,5 +35,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    textureStore(visibility_out, id.xy, vec4<f32>(v));
+    textureStore(visibility_out, pixel, vec4<f32>(v));
 }

@@ -85,6 +85,9 @@ pub enum Rule {
     SameObject,
     /// Views fitted to the camera (cascades, `cssm`), unless stabilised and still snapped alike.
     CameraFitted,
+    /// The pixels the instance covered or covers on screen (its bounds before and after,
+    /// projected): a technique that resolves per pixel redoes only those.
+    Footprint,
 }
 
 impl Rule {
@@ -96,6 +99,7 @@ impl Rule {
             Self::Region => "those it reaches",
             Self::SameObject => "its own",
             Self::CameraFitted => "camera-fitted",
+            Self::Footprint => "its footprint",
         }
     }
 }
@@ -115,6 +119,8 @@ pub fn rule(edit: EditKind, item: ItemKind) -> Rule {
         // (camera, size) do.
         (EditKind::LightEmitter, I::ScreenBuffer) => Rule::SameLight,
         (EditKind::AddLight, I::ScreenBuffer) => Rule::Never,
+        // A dragged object is in no shadow data: only the pixels it covered or covers changed.
+        (EditKind::MoveInstance(T), I::ScreenBuffer) => Rule::Footprint,
         (_, I::ScreenBuffer) => Rule::Always,
         (EditKind::Resize, _) => Rule::Never,
         (EditKind::LightEmitter, _) => Rule::SameLight,
@@ -311,10 +317,11 @@ pub fn volume_signature(live: &LiveScene, light: LightId, view: u64, object: usi
 }
 
 /// The signature of a light's visibility layer: its emitter, the surface (`surface`: its
-/// generation, which changes with the camera and the size) and every instance edit.
+/// generation, which changes with the camera and the size) and every instance edit but a dragged
+/// object's move ([`Rule::Footprint`]: `Shadows::record` compares the dragged objects' bounds).
 pub fn screen_signature(live: &LiveScene, light: LightId, surface: u64) -> Signature {
     let emitter = live.light_state(light).map_or(0, |s| s.emitter_version);
-    Signature { emitter, view: surface, casters: Vec::new(), object: live.instances_epoch() }
+    Signature { emitter, view: surface, casters: Vec::new(), object: live.permanent_epoch() }
 }
 
 /// The region a light mesh depends on: the scene's fitted bounds, within the light's range.
@@ -460,7 +467,8 @@ mod tests {
             let changed = after.get(key).is_none_or(|(_, s)| s != sig);
             let meets = |b: Option<Aabb>| b.is_some_and(|b| item.region.is_some_and(|r| r.meets(&b)));
             let expected = match rule(applied.kind, item.kind) {
-                Rule::Never | Rule::CameraFitted => false,
+                // A footprint is compared by bounds, outside the signature.
+                Rule::Never | Rule::CameraFitted | Rule::Footprint => false,
                 Rule::Always => true,
                 Rule::SameLight => applied.light == Some(item.light),
                 Rule::Region => meets(applied.bounds_before) || meets(applied.bounds_after),

@@ -10,6 +10,18 @@
 @group(0) @binding(3) var<uniform> light: Light;
 @group(0) @binding(4) var visibility_out: texture_storage_2d<r32float, write>;
 
+// The pixels this dispatch covers: x, y the first; z, w width and height (the whole layer: 0, 0
+// and unbounded). A resolve limited to a region (`FrameContext::region`) dispatches its size and
+// takes pixels from `region_pixel`.
+struct Region {
+    rect: vec4<u32>,
+};
+@group(0) @binding(5) var<uniform> region: Region;
+
+fn region_pixel(id: vec3<u32>) -> vec2<u32> {
+    return id.xy + region.rect.xy;
+}
+
 struct Surface {
     p: vec3<f32>,
     n: vec3<f32>,
@@ -31,5 +43,8 @@ fn load_surface(pixel: vec2<u32>) -> Surface {
 }
 
 fn in_frame(pixel: vec2<u32>) -> bool {
-    return f32(pixel.x) < camera.size.x && f32(pixel.y) < camera.size.y;
+    // Pixels come from `region_pixel`, so `pixel - origin` cannot wrap.
+    let local = pixel - region.rect.xy;
+    return f32(pixel.x) < camera.size.x && f32(pixel.y) < camera.size.y && local.x < region.rect.z
+        && local.y < region.rect.w;
 }

@@ -9,7 +9,7 @@ use crate::context::Shared;
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
 use crate::technique::{
-    FrameContext, Handover, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_resolve,
+    FrameContext, Handover, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_resolve_in,
 };
 
 /// Rewrites the part of a technique's own uniform that depends on the light (PCSS's emitter size),
@@ -90,11 +90,16 @@ impl ShadowTechnique for MapLookup {
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let Some(group) = self.map.as_ref().and_then(LightMap::group) else { return };
-        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        let group0 = ctx.resolve_group(out);
         match &self.own {
-            Some((own, _)) => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, group, own]),
-            None => dispatch_resolve(ctx, self.id, &self.pipeline, &[&group0, group]),
+            Some((own, _)) => dispatch_resolve_in(ctx, self.id, &self.pipeline, &[&group0, group, own]),
+            None => dispatch_resolve_in(ctx, self.id, &self.pipeline, &[&group0, group]),
         }
+    }
+
+    /// One map lookup (a fixed kernel) at the pixel's own surface point.
+    fn resolves_per_pixel(&self) -> bool {
+        true
     }
 
     fn stats(&self) -> TechniqueStats {

@@ -5,16 +5,17 @@
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
+    let pixel = region_pixel(id);
+    if (!in_frame(pixel)) {
         return;
     }
-    let s = load_surface(id.xy);
+    let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcf_filter(mp, mp.layer, kernel_radius_texels(mp), id.xy, receiver_plane_gradient(mp, s.p, s.n));
+            v = pcf_filter(mp, mp.layer, kernel_radius_texels(mp), pixel, receiver_plane_gradient(mp, s.p, s.n));
         }
     }
-    textureStore(visibility_out, id.xy, vec4<f32>(v));
+    textureStore(visibility_out, pixel, vec4<f32>(v));
 }

@@ -69,16 +69,17 @@ fn pcss_visibility(mp: MapPoint, p: vec3<f32>, n: vec3<f32>, pixel: vec2<u32>) -
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
+    let pixel = region_pixel(id);
+    if (!in_frame(pixel)) {
         return;
     }
-    let s = load_surface(id.xy);
+    let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcss_visibility(mp, s.p, s.n, id.xy);
+            v = pcss_visibility(mp, s.p, s.n, pixel);
         }
     }
-    textureStore(visibility_out, id.xy, vec4<f32>(v));
+    textureStore(visibility_out, pixel, vec4<f32>(v));
 }

@@ -29,10 +29,11 @@ struct Patches {
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
+    let pixel = region_pixel(id);
+    if (!in_frame(pixel)) {
         return;
     }
-    let s = load_surface(id.xy);
+    let s = load_surface(pixel);
     if (!s.relevant) {
         return;
     }
@@ -56,7 +57,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         );
         let m = textureSampleLevel(light_maps, light_map_sampler, t / patch_count.count.yz, i32(pa.axis_v.w + 0.5), 0.0);
         let v_out = select(0.0, m.x / m.y, m.y > 0.0);
-        textureStore(visibility_out, id.xy, vec4<f32>(clamp(v_out, 0.0, 1.0)));
+        textureStore(visibility_out, pixel, vec4<f32>(clamp(v_out, 0.0, 1.0)));
         return;
     }
 }

@@ -38,7 +38,7 @@ use crate::live::validity::{Region, hash_values, lightmap_signature};
 use crate::live::{ItemKey, ItemKind, Signature};
 use crate::shadowmap::PERMANENT;
 use crate::technique::{
-    Compose, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+    Compose, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve_in,
 };
 use crate::timing::PassKind;
 
@@ -821,8 +821,13 @@ impl ShadowTechnique for Lightmaps {
         if state.patches.is_empty() || !state.maps_shown() {
             return;
         }
-        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(ctx, "light maps", &self.lookup, &[&group0, &state.group]);
+        let group0 = ctx.resolve_group(out);
+        dispatch_resolve_in(ctx, "light maps", &self.lookup, &[&group0, &state.group]);
+    }
+
+    /// The lookup reads the pixel's own surface; the rest decides for the others.
+    fn resolves_per_pixel(&self) -> bool {
+        self.rest.resolves_per_pixel()
     }
 
     /// Shown as soon as `rest` is: until every lit receiver has a light map, receivers are shadowed

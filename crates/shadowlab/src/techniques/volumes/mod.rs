@@ -50,7 +50,7 @@ use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
 use crate::shadowmap::lookup_layout;
-use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};
+use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, scissor_to};
 use crate::timing::PassKind;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -1008,7 +1008,11 @@ impl ShadowTechnique for Volumes {
                 },
             ],
         });
-        let group0 = shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
+        let group0 = ctx.resolve_group(out);
+        // A region (a dragged object's footprint): the stencil and mask passes are scissored to it
+        // and the compute passes cover only it.
+        let region = ctx.region_rect();
+        let [_, _, rw, rh] = ctx.resolve_rect();
         let single = self.samples.len() == 1;
         if measure {
             ctx.encoder.clear_buffer(&state.fill, 0, None);
@@ -1039,15 +1043,14 @@ impl ShadowTechnique for Volumes {
                 pass.set_bind_group(0, Some(&stencil_group), &[pass_offset]);
                 // Focused: nothing outside the focus rectangle is read, not even the depth copy.
                 let focus_scissor = plan.focus_rect.filter(|r| r[2] > 0 && r[3] > 0);
-                if let Some([x, y, w, h]) = focus_scissor {
-                    pass.set_scissor_rect(x, y, w, h);
-                }
-                if i == 0 {
+                // Nothing of the region in focus: the pass only clears (the mask then reads lit).
+                let visible = scissor_to(&mut pass, region, focus_scissor);
+                if visible && i == 0 {
                     pass.set_pipeline(&copy_pipeline(shared));
                     pass.draw(0..3, 0..1);
                     draws += 1;
                 }
-                if let Some(r) = &self.receivers {
+                if let Some(r) = self.receivers.as_ref().filter(|_| visible) {
                     pass.set_pipeline(&receiver_pipeline(shared));
                     pass.set_stencil_reference(0x80);
                     pass.set_vertex_buffer(0, ctx.gpu_scene.vertices.slice(..));
@@ -1059,10 +1062,10 @@ impl ShadowTechnique for Volumes {
                     }
                     pass.set_stencil_reference(0);
                 }
-                if plan.method != Method::Skip {
-                    if let Some([x, y, w, h]) = plan.scissor {
-                        pass.set_scissor_rect(x, y, w, h);
-                    }
+                if visible
+                    && plan.method != Method::Skip
+                    && scissor_to(&mut pass, region, plan.scissor.or(focus_scissor))
+                {
                     pass.set_vertex_buffer(0, store.vertices().slice(..));
                     // The drawn casters' regions, as runs of consecutive slots: one multi-draw each.
                     let all = runs(plan.casters.iter().map(|d| d.slot));
@@ -1130,13 +1133,12 @@ impl ShadowTechnique for Volumes {
                     multiview_mask: None,
                 });
                 pass.set_bind_group(0, Some(&stencil_group), &[pass_offset]);
-                if let Some([x, y, w, h]) = plan.focus_rect.filter(|r| r[2] > 0 && r[3] > 0) {
-                    pass.set_scissor_rect(x, y, w, h);
-                }
-                for d in mask_draws(parity, crop) {
-                    pass.set_pipeline(&mask_pipeline(shared, &d));
-                    pass.set_stencil_reference(d.reference);
-                    pass.draw(0..3, 0..1);
+                if scissor_to(&mut pass, region, plan.focus_rect.filter(|r| r[2] > 0 && r[3] > 0)) {
+                    for d in mask_draws(parity, crop) {
+                        pass.set_pipeline(&mask_pipeline(shared, &d));
+                        pass.set_stencil_reference(d.reference);
+                        pass.draw(0..3, 0..1);
+                    }
                 }
             }
             if self.mask_only && single {
@@ -1159,11 +1161,7 @@ impl ShadowTechnique for Volumes {
                 }
                 None => pass.set_bind_group(1, Some(&sample_group), &[offset]),
             }
-            pass.dispatch_workgroups(
-                crate::util::groups(ctx.surface.width, 8),
-                crate::util::groups(ctx.surface.height, 8),
-                1,
-            );
+            pass.dispatch_workgroups(crate::util::groups(rw, 8), crate::util::groups(rh, 8), 1);
         }
         if !single {
             let timestamps = ctx.timer.compute_pass(device, PassKind::Visibility);
@@ -1180,11 +1178,7 @@ impl ShadowTechnique for Volumes {
                 }
                 None => pass.set_bind_group(1, Some(&sample_group), &[0]),
             }
-            pass.dispatch_workgroups(
-                crate::util::groups(ctx.surface.width, 8),
-                crate::util::groups(ctx.surface.height, 8),
-                1,
-            );
+            pass.dispatch_workgroups(crate::util::groups(rw, 8), crate::util::groups(rh, 8), 1);
         }
         if measure {
             // The fill counter, then the store's draws and counters: the triangles each plan drew.
@@ -1218,6 +1212,11 @@ impl ShadowTechnique for Volumes {
             Some(state) if self.frames > 0 => vec![&state.fill],
             _ => Vec::new(),
         }
+    }
+
+    /// A pixel's counts depend on its depth and the volumes alone.
+    fn resolves_per_pixel(&self) -> bool {
+        true
     }
 
     fn stats(&self) -> TechniqueStats {

@@ -56,47 +56,50 @@ fn sample_visibility(s: Surface, pixel: vec2<u32>) -> vec2<f32> {
 // One sample: V directly.
 @compute @workgroup_size(8, 8)
 fn single(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
+    let pixel = region_pixel(id);
+    if (!in_frame(pixel)) {
         return;
     }
-    let s = load_surface(id.xy);
+    let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
-        let a = sample_visibility(s, id.xy);
+        let a = sample_visibility(s, pixel);
         v = select(0.0, a.x / a.y, a.y > 0.0);
     }
-    textureStore(visibility_out, id.xy, vec4<f32>(v));
+    textureStore(visibility_out, pixel, vec4<f32>(v));
 }
 
 // Adds one sample (the first overwrites).
 @compute @workgroup_size(8, 8)
 fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
+    let pixel = region_pixel(id);
+    if (!in_frame(pixel)) {
         return;
     }
-    let i = id.y * u32(camera.size.x) + id.x;
+    let i = pixel.y * u32(camera.size.x) + pixel.x;
     var sum = vec2<f32>(0.0);
     if (sample.index.x > 0u) {
         sum = accum[i];
     }
-    let s = load_surface(id.xy);
+    let s = load_surface(pixel);
     if (s.relevant) {
-        sum = sum + sample_visibility(s, id.xy);
+        sum = sum + sample_visibility(s, pixel);
     }
     accum[i] = sum;
 }
 
 @compute @workgroup_size(8, 8)
 fn finish(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
+    let pixel = region_pixel(id);
+    if (!in_frame(pixel)) {
         return;
     }
-    let i = id.y * u32(camera.size.x) + id.x;
-    let s = load_surface(id.xy);
+    let i = pixel.y * u32(camera.size.x) + pixel.x;
+    let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
         let a = accum[i];
         v = select(0.0, a.x / a.y, a.y > 0.0);
     }
-    textureStore(visibility_out, id.xy, vec4<f32>(v));
+    textureStore(visibility_out, pixel, vec4<f32>(v));
 }

@@ -40,7 +40,14 @@ pub struct SceneArgs {
     /// format or a damaged file is reported, and the light meshes are computed instead).
     #[arg(long, value_name = "FILE")]
     pub light_meshes: Option<std::path::PathBuf>,
+    /// GPU memory the shadow maps may take together, in MiB (0: no limit). Past it, map sizes
+    /// are halved per light by screen importance, and the run says which.
+    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_MAP_BUDGET_MIB)]
+    pub map_budget: u64,
 }
+
+/// `--map-budget`'s default: the engine's ([`shadowlab::DEFAULT_MAP_BUDGET`]) in MiB.
+pub const DEFAULT_MAP_BUDGET_MIB: u64 = shadowlab::DEFAULT_MAP_BUDGET >> 20;
 
 /// The scene, the chosen view and the chosen lights, ready to use.
 pub struct Setup {
@@ -51,6 +58,8 @@ pub struct Setup {
     pub height: u32,
     /// Light meshes read with `--light-meshes`, valid for `scene`.
     pub light_meshes: Vec<shadowlab_core::lightmesh::LightMesh>,
+    /// `--map-budget` in bytes (`None`: no limit).
+    pub map_budget: Option<u64>,
 }
 
 impl SceneArgs {
@@ -93,7 +102,11 @@ impl SceneArgs {
             Some(path) => read_light_meshes(path, &scene)?,
             None => Vec::new(),
         };
-        Ok(Setup { scene, view, lights, width, height, light_meshes })
+        if self.map_budget > 1 << 30 {
+            bail!("--map-budget {} MiB is more than any GPU holds (at most {} MiB)", self.map_budget, 1u64 << 30);
+        }
+        let map_budget = (self.map_budget > 0).then_some(self.map_budget << 20);
+        Ok(Setup { scene, view, lights, width, height, light_meshes, map_budget })
     }
 }
 
@@ -515,6 +528,7 @@ pub fn renderer(gpu: &shadowlab::Gpu, setup: &Setup, spec: &shadowlab::Technique
 /// A renderer for `setup` with each chosen light's spec of `selected` and `none` on the others.
 pub fn renderer_for(gpu: &shadowlab::Gpu, setup: &Setup, selected: &Selected) -> Result<shadowlab::Renderer> {
     let mut r = shadowlab::Renderer::new(gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
+    r.shadows.set_map_budget(setup.map_budget);
     if !setup.light_meshes.is_empty() {
         r.provide_light_meshes(setup.light_meshes.clone());
     }
@@ -535,4 +549,36 @@ pub fn renderer_for(gpu: &shadowlab::Gpu, setup: &Setup, selected: &Selected) ->
         }
     }
     Ok(r)
+}
+
+/// What the map-memory budget did in `r`'s last frame, for `metrics.json`/`bench --json`:
+/// `{budget_bytes, reduced: [{light, asked, granted}]}` (`budget_bytes` null without a limit).
+pub fn map_budget_json(r: &shadowlab::Renderer) -> serde_json::Value {
+    let reduced: Vec<serde_json::Value> = r
+        .shadows
+        .map_reductions()
+        .into_iter()
+        .map(|(light, asked, granted)| {
+            let name = r.scene().lights.get(light.0 as usize).map_or("?", |l| l.name.as_str());
+            serde_json::json!({ "light": name, "asked": asked, "granted": granted })
+        })
+        .collect();
+    serde_json::json!({ "budget_bytes": r.shadows.map_budget(), "reduced": reduced })
+}
+
+/// Says on stderr which lights' maps the budget made smaller in `r` (`label`: the technique).
+pub fn warn_map_reductions(r: &shadowlab::Renderer, label: &str) {
+    let cut = r.shadows.map_reductions();
+    if cut.is_empty() {
+        return;
+    }
+    let budget = r.shadows.map_budget().map_or("no".to_owned(), |b| format!("{} MiB", b >> 20));
+    let lights: Vec<String> = cut
+        .iter()
+        .map(|(l, a, g)| {
+            let name = r.scene().lights.get(l.0 as usize).map_or("?", |l| l.name.as_str());
+            format!("'{name}' {a}² → {g}²")
+        })
+        .collect();
+    eprintln!("warning: {label}: shadow maps cut to fit the {budget} map budget (--map-budget): {}", lights.join(", "));
 }

@@ -308,6 +308,20 @@ fn render_reference_and_bench_run() {
     let (_, b) = run_bench(&["--technique", "pcf", "--technique", "hard:map_size=512"]);
     assert_eq!(b["techniques"][1]["time_ratio_over_hard"], 1.0);
     assert!(b["techniques"][0]["time_ratio_over_hard"].as_f64().is_some());
+    // The default map budget holds the penumbra's one light: nothing cut, nothing said.
+    assert_eq!(b["techniques"][0]["map_budget"]["budget_bytes"], 1u64 << 30);
+    assert_eq!(b["techniques"][0]["map_budget"]["reduced"].as_array().map(Vec::len), Some(0));
+    // A 1 MiB budget cuts its 2048² map (16 MiB) to 512² (exactly 1 MiB) and says so, on stderr
+    // and in the JSON.
+    let mut args = vec!["bench", "--scene", "penumbra", "--size", "32x32", "--frames", "1", "--warmup", "0"];
+    args.extend(["--technique", "hard", "--map-budget", "1", "--json", bench.to_str().unwrap()]);
+    let out = shadowlab(&args);
+    ok(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("cut to fit the 1 MiB map budget") && stderr.contains("2048² → 512²"), "{stderr}");
+    let b = json(&bench);
+    let reduced = &b["techniques"][0]["map_budget"]["reduced"][0];
+    assert_eq!((reduced["asked"].as_u64(), reduced["granted"].as_u64()), (Some(2048), Some(512)), "{b}");
     std::fs::remove_dir_all(dir).ok();
 }
 

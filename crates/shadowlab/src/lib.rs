@@ -37,5 +37,5 @@ pub use live::{Edit, EditError, InstanceId, LightChange, Work};
 pub use registry::{TechniqueSpec, registry};
 pub use renderer::{FrameReport, Renderer};
 pub use shadowlab_core as core;
-pub use shadows::Shadows;
+pub use shadows::{DEFAULT_MAP_BUDGET, Shadows};
 pub use technique::{ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats};

@@ -4,8 +4,8 @@
 //! `hard`, `pcf`, `pcss`, `blurred`, `smoothies` and `volumes` (cropped receivers).
 
 use glam::Vec4;
-use shadowlab_core::ParamSet;
 use shadowlab_core::lightspace::{LightFrusta, light_frusta};
+use shadowlab_core::{Aabb, Light, Mobility, ParamSet};
 
 use crate::context::Shared;
 use crate::live::MapViews;
@@ -18,7 +18,10 @@ pub struct LightMap {
     pub maps: Option<MapViews>,
     pub frusta: LightFrusta,
     pub raster: Raster,
+    /// The size the parameters ask for, and the one allocated (smaller when the memory budget's
+    /// share of this light does not hold the asked one).
     size: u32,
+    granted: u32,
     linear: bool,
     bias: BiasUniform,
     params: wgpu::Buffer,
@@ -45,6 +48,7 @@ impl LightMap {
             frusta: LightFrusta { views: Vec::new(), cube: false },
             raster,
             size,
+            granted: size,
             linear,
             bias,
             params,
@@ -77,26 +81,47 @@ impl LightMap {
         }
     }
 
+    /// The maps a light map with parameters `p` asks for on `light`: their size and how many
+    /// (its views, twice as many when `dynamic` casters may need composite copies).
+    pub fn demand(p: &ParamSet, light: &Light, bounds: &Aabb, dynamic: bool) -> (u32, u32) {
+        let size = p.int("map_size") as u32;
+        let views = light_frusta(light, bounds, size).views.len() as u32;
+        (size, views * if dynamic { 2 } else { 1 })
+    }
+
+    /// The size of the maps allocated (the asked one unless the memory budget cut it).
+    pub fn granted_size(&self) -> u32 {
+        self.granted
+    }
+
     /// Fits the views to the light and the scene as they are now and renders the layers that are
     /// not valid. Returns the views rendered.
     pub fn update(&mut self, ctx: &mut FrameContext<'_>) -> Result<u32, TechniqueError> {
-        let frusta = light_frusta(ctx.light, &ctx.gpu_scene.bounds, self.size);
+        let mut frusta = light_frusta(ctx.light, &ctx.gpu_scene.bounds, self.size);
         let n = frusta.views.len() as u32;
-        if self.maps.as_ref().is_none_or(|m| m.len() != n) {
+        let dynamic = ctx.live.scene().instances.iter().any(|i| i.mobility == Mobility::Dynamic && i.casts_shadows);
+        let size = ctx.cache.grant_map_size(ctx.light_id, ctx.owner, self.size, n * if dynamic { 2 } else { 1 });
+        if size != self.size {
+            frusta = light_frusta(ctx.light, &ctx.gpu_scene.bounds, size);
+        }
+        if self.maps.as_ref().is_none_or(|m| m.len() != n || m.size() != size) {
             if let Some(old) = &self.maps {
                 old.forget_items(ctx);
             }
-            self.maps = Some(MapViews::new(ctx.shared, ctx.cache, self.size, n));
+            self.maps = Some(MapViews::new(ctx.shared, ctx.cache, size, n));
             self.group = None;
         }
+        self.granted = size;
         let cube = if frusta.cube { 1.0 } else { 0.0 };
-        if self.bias.values.w != cube {
+        if self.bias.values.w != cube || self.bias.values.z != size as f32 {
             self.bias.values.w = cube;
+            // Offsets are in texels of the map allocated.
+            self.bias.values.z = size as f32;
             ctx.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.bias));
         }
         let maps = self.maps.as_mut().expect("made above");
         // The lookup offsets (normal offset, constant bias) do not change the maps' depths.
-        let extra = hash_values(&[f64::from(self.size)]);
+        let extra = hash_values(&[f64::from(size)]);
         self.rendered = maps.update(ctx, &frusta.views, &self.raster, extra)?;
         if self.group.as_ref().is_none_or(|g| g.1 != maps.generation()) {
             self.group = Some((lookup_group(ctx.shared, &maps.maps, &self.params, self.linear), maps.generation()));

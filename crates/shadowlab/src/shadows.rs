@@ -8,13 +8,17 @@
 //! lights whose colour or emitter changed, and lets every technique re-render only the items whose
 //! signatures changed (DESIGN.md §11).
 
-use shadowlab_core::{LightId, Scene};
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+
+use shadowlab_core::{LightId, Mobility, Scene};
 
 use crate::auto::Preference;
 use crate::context::{RegionUniform, Shared};
 use crate::frame::{CameraUniform, Footprint, LightUniform, SurfaceInputs, VisibilityLayer};
 use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
+use crate::live::cache::MAP_TEXEL_BYTES;
 use crate::live::scheduler::{Adaptation, Budget, CostModel, Step, UnitCounts, screen_share};
 use crate::live::temporary::TemporaryShadows;
 use crate::live::validity::screen_signature;
@@ -27,6 +31,14 @@ use crate::util;
 /// The share of the target frame time kept free of fills (Toromanoff's alg. 15 leaves the margin
 /// open): a tenth, against the prediction's errors.
 const BUDGET_MARGIN: f64 = 0.1;
+
+/// The default shadow-map memory budget (`Shadows::set_map_budget`): 1 GiB, a fraction of
+/// any desktop GPU's memory and of what WebGPU devices commonly give.
+pub const DEFAULT_MAP_BUDGET: u64 = 1 << 30;
+
+/// The map-memory budget's shares (bytes) by (light, rung), with the key of the demands they
+/// were planned for.
+type MapPlan = (u64, HashMap<(LightId, usize), u64>);
 
 /// One rung of a light's quality ladder: a technique with its own caches.
 pub(crate) struct Rung {
@@ -137,6 +149,10 @@ pub struct Shadows {
     /// Instances changed since the GPU copy was written.
     instances_dirty: bool,
     size: (u32, u32),
+    /// Bytes the lights' shadow maps may take together (`None`: no limit).
+    map_budget: Option<u64>,
+    /// The shares of the budget by (light, rung), and the key of the demands they were made for.
+    map_plan: Option<MapPlan>,
 }
 
 impl Shadows {
@@ -161,6 +177,8 @@ impl Shadows {
             frame_index: 0,
             instances_dirty: false,
             size: (0, 0),
+            map_budget: Some(DEFAULT_MAP_BUDGET),
+            map_plan: None,
         }
     }
 
@@ -468,12 +486,94 @@ impl Shadows {
         let mut fresh = Shadows::new(&self.shared.gpu, self.scene().clone());
         fresh.set_caching(false);
         fresh.cap = self.cap;
+        // The same grants: the plan is kept while the lights' demands are the same.
+        fresh.map_budget = self.map_budget;
+        fresh.map_plan = self.map_plan.clone();
         for s in &self.lights {
             let index = self.live.light_index(s.light).expect("shadowed lights exist");
             let specs: Vec<TechniqueSpec> = s.rungs.iter().map(|r| r.spec.clone()).collect();
             fresh.set_ladder(LightId(index as u32), &specs, s.layer.texture.width(), s.layer.texture.height())?;
         }
         Ok(fresh)
+    }
+
+    /// Bytes the lights' shadow maps may take together (`None`: no limit; default
+    /// [`DEFAULT_MAP_BUDGET`]). When the maps the lights' techniques ask for exceed it, each light
+    /// gets a share weighted by its screen importance (a quarter plus its share of the screen, as
+    /// the scheduler rates it; Godot's and Unity's shadow atlases share theirs likewise) and its
+    /// map size is halved until its maps fit its share (at least 16²). Shares are planned when
+    /// the lights or their demands change, with the camera of that frame, not at every camera
+    /// move (which would re-render maps). Covers `hard`, `pcf`, `pcss`, `blurred`, `smoothies`
+    /// and `lightmaps` over them.
+    pub fn set_map_budget(&mut self, bytes: Option<u64>) {
+        if bytes != self.map_budget {
+            self.map_budget = bytes;
+            self.map_plan = None;
+        }
+    }
+
+    pub fn map_budget(&self) -> Option<u64> {
+        self.map_budget
+    }
+
+    /// The lights whose maps the budget made smaller: (light, size asked, size granted), after
+    /// the last frame.
+    pub fn map_reductions(&self) -> Vec<(LightId, u32, u32)> {
+        let mut out: Vec<(LightId, u32, u32)> =
+            self.cache.map_reductions.iter().map(|(&(light, _), &(asked, granted))| (light, asked, granted)).collect();
+        out.sort_unstable_by_key(|r| r.0);
+        out
+    }
+
+    /// Plans the budget's shares (when the demands changed) and hands them to the cache by owner.
+    fn plan_map_memory(&mut self, camera: &CameraUniform) {
+        let bounds = self.gpu_scene.bounds;
+        let dynamic = self.live.scene().instances.iter().any(|i| i.mobility == Mobility::Dynamic && i.casts_shadows);
+        let mut demands: Vec<(LightId, usize, u64)> = Vec::new();
+        let mut key = std::hash::DefaultHasher::new();
+        self.map_budget.hash(&mut key);
+        for s in &self.lights {
+            let Some(light) = self.live.light(s.light) else { continue };
+            for (r, rung) in s.rungs.iter().enumerate() {
+                if let Some((size, layers)) = rung.technique.map_demand(light, &bounds, dynamic) {
+                    demands.push((s.light, r, u64::from(layers) * u64::from(size).pow(2) * MAP_TEXEL_BYTES));
+                    (s.light, r, size, layers).hash(&mut key);
+                    light.position().map(|p| p.to_array().map(f32::to_bits)).hash(&mut key);
+                    light.range.map(f32::to_bits).hash(&mut key);
+                }
+            }
+        }
+        let key = key.finish();
+        if self.map_plan.as_ref().is_none_or(|p| p.0 != key) {
+            let total: u64 = demands.iter().map(|d| d.2).sum();
+            let mut shares = HashMap::new();
+            if let Some(budget) = self.map_budget.filter(|&b| total > b) {
+                let view = camera.view();
+                let forward = (view.target - view.position).normalize_or(glam::Vec3::NEG_Z);
+                let weight = |id: LightId| {
+                    let l = self.live.light(id).expect("demands come from live lights");
+                    0.25 + f64::from(screen_share(l, view.position, forward, view.fov_y, camera.aspect()))
+                };
+                let mut lights: Vec<LightId> = demands.iter().map(|d| d.0).collect();
+                lights.dedup();
+                let sum: f64 = lights.iter().map(|&l| weight(l)).sum();
+                for &l in &lights {
+                    let share = budget as f64 * weight(l) / sum;
+                    let of_light: u64 = demands.iter().filter(|d| d.0 == l).map(|d| d.2).sum();
+                    for d in demands.iter().filter(|d| d.0 == l) {
+                        shares.insert((l, d.1), (share * d.2 as f64 / of_light.max(1) as f64) as u64);
+                    }
+                }
+            }
+            self.map_plan = Some((key, shares));
+        }
+        let plan = &self.map_plan.as_ref().expect("made above").1;
+        self.cache.map_shares = self
+            .lights
+            .iter()
+            .flat_map(|s| s.rungs.iter().enumerate().map(move |(r, rung)| (s.light, r, rung.owner)))
+            .filter_map(|(l, r, owner)| plan.get(&(l, r)).map(|&share| (owner, share)))
+            .collect();
     }
 
     /// Brings the GPU copy of the instances up to date with the edits applied since the last frame
@@ -521,6 +621,7 @@ impl Shadows {
     ) -> Result<Work, TechniqueError> {
         let gpu = self.shared.gpu.clone();
         self.sync();
+        self.plan_map_memory(&surface.camera);
         for s in &mut self.lights {
             let Some(state) = self.live.light_state(s.light) else { continue };
             if state.colour_version != s.uniform_version {

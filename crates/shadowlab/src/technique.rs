@@ -159,6 +159,12 @@ pub trait ShadowTechnique: Send {
     fn resolves_per_pixel(&self) -> bool {
         false
     }
+    /// The shadow maps the technique asks for on `light` in a scene of `bounds` (their size and
+    /// how many; `dynamic`: dynamic casters may need composite copies), for the map-memory budget
+    /// (`Shadows::set_map_budget`), which may grant a smaller size. `None`: no maps under it.
+    fn map_demand(&self, _light: &Light, _bounds: &shadowlab_core::Aabb, _dynamic: bool) -> Option<(u32, u32)> {
+        None
+    }
     /// Whether the technique has a complete state to show (its maps, volumes and light maps all
     /// filled for some state of the scene). While filling is spread over frames from nothing, it
     /// has not, and the light is shown unshadowed (Toromanoff's all-or-nothing rule).

@@ -41,7 +41,17 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         bar.set_message(format!("bench {}", spec.label()));
         let m = measure(&gpu, &setup, spec, warmup, frames, &|| bar.inc(1))?;
         let stats = m.renderer.shadows.stats();
-        results.push((spec.label().to_owned(), spec.id().to_owned(), spec.params_json(), m.timing, stats, m.cached));
+        crate::args::warn_map_reductions(&m.renderer, spec.label());
+        let budget = crate::args::map_budget_json(&m.renderer);
+        results.push((
+            spec.label().to_owned(),
+            spec.id().to_owned(),
+            spec.params_json(),
+            m.timing,
+            stats,
+            m.cached,
+            budget,
+        ));
     }
     bar.finish_and_clear();
     // The baseline: plain `hard`, else the first `hard` with parameters (`hard:faces=front`).
@@ -64,7 +74,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         "technique", "frame ms", "gbuffer", "shadow", "visib.", "lighting", "CPU ms", "×hard", "still ms", "MiB"
     );
     let mut json_rows = Vec::new();
-    for (spec, id, params, t, stats, cached) in &results {
+    for (spec, id, params, t, stats, cached, budget) in &results {
         let p = t.gpu_passes.unwrap_or([f64::NAN; 4]);
         let ratio = hard.map(|h| t.frame_ms() / h);
         println!(
@@ -86,7 +96,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "cached_gpu_ms": cached.gpu_json(), "cached_cpu_ms": { "median": cached.cpu_median },
             "frames": t.frames, "warmup": t.warmup,
             "time_ratio_over_hard": ratio,
-            "memory_bytes": stats.memory_bytes, "passes": stats.passes, "draws": stats.draws,
+            "memory_bytes": stats.memory_bytes, "map_budget": budget, "passes": stats.passes, "draws": stats.draws,
             "shadow_triangles": stats.triangles,
             "technique_stats": stats.extra.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
         }));

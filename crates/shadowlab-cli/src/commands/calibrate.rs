@@ -221,6 +221,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         emitter_scale: args.emitter_scale,
         emissive_lights: args.emissive_lights,
         light_meshes: None,
+        map_budget: crate::args::DEFAULT_MAP_BUDGET_MIB,
     };
     let mut setup = scene_args.load()?;
     let views: Vec<shadowlab_core::View> = if args.views.is_empty() {

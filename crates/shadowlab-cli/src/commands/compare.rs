@@ -192,6 +192,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         let image_error = image_rmse(&image, &reference_image, Some(&surface.covered));
         let s = pooled.summary();
         let stats = m.renderer.shadows.stats();
+        crate::args::warn_map_reductions(&m.renderer, spec.label());
         entries.push(json!({
             "id": spec.id(),
             "spec": spec.label(),
@@ -205,6 +206,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "cached_gpu_ms": m.cached.gpu_json(),
             "cached_cpu_ms": { "median": m.cached.cpu_median },
             "memory_bytes": stats.memory_bytes,
+            "map_budget": crate::args::map_budget_json(&m.renderer),
             "frames": m.timing.frames, "warmup": m.timing.warmup,
             "passes": stats.passes, "draws": stats.draws, "shadow_triangles": stats.triangles,
             "technique_stats": stats.extra.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),

@@ -112,6 +112,9 @@ pub struct Args {
     /// Light meshes from `shadowlab precompute` for `lightmesh` (as `compare --light-meshes`).
     #[arg(long, value_name = "FILE")]
     light_meshes: Option<std::path::PathBuf>,
+    /// GPU memory the shadow maps may take together, in MiB (0: no limit; as `compare --map-budget`).
+    #[arg(long, value_name = "MIB", default_value_t = crate::args::DEFAULT_MAP_BUDGET_MIB)]
+    map_budget: u64,
     /// Keep frames to a target time: MS, or `auto` (2 × the median time of a frame with `hard` on
     /// every light, measured first). Cache fills are spread over frames; a light shows its last
     /// complete state until the new one is complete. `--preference` scales it: quality ×2,
@@ -198,6 +201,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         emitter_scale: args.emitter_scale,
         emissive_lights: args.emissive_lights,
         light_meshes: args.light_meshes.clone(),
+        map_budget: args.map_budget,
     };
     let setup = scene_args.load()?;
     // `--preference` scales the `auto` budget with `--technique auto` and the target with
@@ -271,6 +275,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     };
     let mut r = Renderer::new(&gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
     r.provide_light_meshes(setup.light_meshes.clone());
+    r.shadows.set_map_budget(setup.map_budget);
     r.shadows.set_caching(!args.no_cache);
     // The engine scales the target by the preference itself (the factors are powers of two: exact).
     r.set_target_ms(target.as_ref().map(|t| t.ms / preference.budget_factor()));
@@ -346,6 +351,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
 fn hard_frame_ms(gpu: &shadowlab::Gpu, setup: &crate::args::Setup) -> Result<(f64, &'static str)> {
     let mut r = Renderer::new(gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
     r.provide_light_meshes(setup.light_meshes.clone());
+    r.shadows.set_map_budget(setup.map_budget);
     r.shadows.set_caching(false);
     let hard = TechniqueSpec::parse("hard", &[])?;
     let none = TechniqueSpec::parse("none", &[])?;

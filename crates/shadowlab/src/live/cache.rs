@@ -96,6 +96,11 @@ pub struct ShadowCache {
     /// Light meshes read from a file (`shadowlab precompute`), each with the signature of the state
     /// it was made for: `lightmesh` takes one instead of building it while the signatures agree.
     pub preloaded_light_meshes: Vec<(LightId, Signature, Arc<LightMesh>)>,
+    /// Shadow-map memory shares by technique owner (bytes), set by `Shadows` when the lights'
+    /// demands exceed the memory budget; an owner without one takes the size it asks for.
+    pub map_shares: HashMap<u32, u64>,
+    /// Map sizes granted below the asked ones, by (light, owner): (asked, granted).
+    pub map_reductions: HashMap<(LightId, u32), (u32, u32)>,
 }
 
 impl Default for ShadowCache {
@@ -108,11 +113,37 @@ impl Default for ShadowCache {
             work: Work::default(),
             units: UnitCounts::new(),
             preloaded_light_meshes: Vec::new(),
+            map_shares: HashMap::new(),
+            map_reductions: HashMap::new(),
         }
     }
 }
 
+/// Bytes of one depth texel of a shadow map (`Depth32Float`).
+pub const MAP_TEXEL_BYTES: u64 = 4;
+
+/// The largest map size that is `asked` halved zero or more times, at least 16 (the smallest
+/// `map_size`), with `layers` maps of it within `share` bytes.
+pub fn fit_map_size(asked: u32, layers: u32, share: u64) -> u32 {
+    let mut size = asked.max(16);
+    while size > 16 && u64::from(layers) * u64::from(size) * u64::from(size) * MAP_TEXEL_BYTES > share {
+        size = (size / 2).max(16);
+    }
+    size
+}
+
 impl ShadowCache {
+    /// The map size a technique instance (`owner`, shadowing `light`) may allocate for `layers`
+    /// maps of `asked`² texels: within its share of the memory budget, if it has one.
+    pub fn grant_map_size(&mut self, light: LightId, owner: u32, asked: u32, layers: u32) -> u32 {
+        let granted = self.map_shares.get(&owner).map_or(asked, |&share| fit_map_size(asked, layers, share));
+        if granted < asked {
+            self.map_reductions.insert((light, owner), (asked, granted));
+        } else {
+            self.map_reductions.remove(&(light, owner));
+        }
+        granted
+    }
     /// Whether items are kept across frames. Disabled, every item is rebuilt every frame (the
     /// uncached engine the cached one is measured and checked against).
     pub fn enabled(&self) -> bool {
@@ -164,12 +195,14 @@ impl ShadowCache {
     /// Forgets every item of an owner (its memory was freed or reallocated).
     pub fn forget_owner(&mut self, owner: u32) {
         self.records.retain(|k, _| k.owner != owner);
+        self.map_reductions.retain(|k, _| k.1 != owner);
         self.generation += 1;
     }
 
     /// Forgets every item of a light.
     pub fn forget_light(&mut self, light: LightId) {
         self.records.retain(|k, _| k.light != light);
+        self.map_reductions.retain(|k, _| k.0 != light);
         self.generation += 1;
     }
 
@@ -196,5 +229,31 @@ impl ShadowCache {
     /// The frame's units by kind and size (cleared).
     pub fn take_units(&mut self) -> UnitCounts {
         std::mem::take(&mut self.units)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn map_sizes_halve_until_they_fit_their_share() {
+        // Six 2048² faces are 96 MiB: a 16 MiB share holds six 512² ones (6 MiB), not 1024² (24 MiB).
+        assert_eq!(fit_map_size(2048, 6, 16 << 20), 512);
+        assert_eq!(fit_map_size(2048, 6, 96 << 20), 2048, "a share that holds the asked size keeps it");
+        assert_eq!(fit_map_size(2048, 6, 0), 16, "never below the smallest map size");
+        assert_eq!(fit_map_size(1000, 1, 1 << 20), 500, "sizes that are not powers of two halve too");
+    }
+
+    #[test]
+    fn grants_follow_shares_and_are_reported() {
+        let mut cache = ShadowCache::default();
+        let light = LightId(3);
+        assert_eq!(cache.grant_map_size(light, 7, 2048, 6), 2048, "no share: the asked size");
+        cache.map_shares.insert(7, 16 << 20);
+        assert_eq!(cache.grant_map_size(light, 7, 2048, 6), 512);
+        assert_eq!(cache.map_reductions.get(&(light, 7)), Some(&(2048, 512)));
+        cache.forget_owner(7);
+        assert!(cache.map_reductions.is_empty(), "a forgotten owner's reduction goes with it");
     }
 }

@@ -102,6 +102,15 @@ impl ShadowTechnique for MapLookup {
         true
     }
 
+    fn map_demand(
+        &self,
+        light: &shadowlab_core::Light,
+        bounds: &shadowlab_core::Aabb,
+        dynamic: bool,
+    ) -> Option<(u32, u32)> {
+        Some(LightMap::demand(&self.params, light, bounds, dynamic))
+    }
+
     fn stats(&self) -> TechniqueStats {
         let Some(m) = &self.map else { return TechniqueStats::default() };
         let (passes, draws, triangles) = m.counts(self.triangles);

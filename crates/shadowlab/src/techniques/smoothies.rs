@@ -321,7 +321,9 @@ impl ShadowTechnique for Smoothies {
             shared.gpu.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&emitter));
         }
         let layers = map.frusta.views.len();
-        if self.state.as_ref().is_none_or(|s| s.color_layers.len() != layers) {
+        // The layers or the size (the memory budget's grant) changed: the maps were reallocated.
+        let size = map.granted_size();
+        if self.state.as_ref().is_none_or(|s| s.color_layers.len() != layers || s.buffer.width() != size) {
             let state = self.build(shared, self.map.as_ref().expect("made above"));
             self.state = Some(state);
         }
@@ -385,6 +387,10 @@ impl ShadowTechnique for Smoothies {
         }
         self.triangles = ctx.gpu_scene.triangles;
         Ok(())
+    }
+
+    fn map_demand(&self, light: &Light, bounds: &shadowlab_core::Aabb, dynamic: bool) -> Option<(u32, u32)> {
+        Some(LightMap::demand(&self.params, light, bounds, dynamic))
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {

@@ -830,6 +830,10 @@ impl ShadowTechnique for Lightmaps {
         self.rest.resolves_per_pixel()
     }
 
+    fn map_demand(&self, light: &Light, bounds: &shadowlab_core::Aabb, dynamic: bool) -> Option<(u32, u32)> {
+        self.rest.map_demand(light, bounds, dynamic)
+    }
+
     /// Shown as soon as `rest` is: until every lit receiver has a light map, receivers are shadowed
     /// like the other pixels (Toromanoff's alg. 13: "otherwise render receivers like the other
     /// objects").

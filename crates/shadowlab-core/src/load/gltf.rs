@@ -28,6 +28,24 @@ pub fn load(path: &Path) -> Result<Loaded> {
     parse(&bytes, path)
 }
 
+/// Runs `read`, a call into the gltf crate, turning a panic into an error at `path` (`what`: the
+/// part being read). gltf 1.4.1 panics on some malformed files instead of returning an error: its
+/// validation indexes `accessors` with a mesh attribute's accessor index unchecked
+/// (`gltf-json` `mesh.rs`, found by `fuzz/` target `gltf`); a user's file must not crash us.
+fn guarded<T>(path: &Path, what: &str, read: impl FnOnce() -> Result<T>) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)).unwrap_or_else(|payload| {
+        let cause = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "no message".to_owned());
+        Err(SceneError::parse(
+            Location::file(path),
+            format!("{what}: the glTF reader failed on this malformed file ({cause})"),
+        ))
+    })
+}
+
 /// Parses glTF or GLB bytes; `path` names the file in errors and resolves external buffers.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
     let file = || Location::file(path);
@@ -40,10 +58,14 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
             "not a glTF or GLB file (a .glb starts with the bytes 'glTF', a .gltf is a JSON object)",
         ));
     }
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| SceneError::parse(file(), gltf_message(e)))?;
+    let gltf = guarded(path, "the document", || {
+        gltf::Gltf::from_slice(bytes).map_err(|e| SceneError::parse(file(), gltf_message(e)))
+    })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
-        .map_err(|e| SceneError::parse(file(), format!("buffers: {}", gltf_message(e))))?;
+    let buffers = guarded(path, "buffers", || {
+        gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+            .map_err(|e| SceneError::parse(file(), format!("buffers: {}", gltf_message(e))))
+    })?;
     let doc = &gltf.document;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "gltf".into());
     let mut b = Builder {
@@ -163,15 +185,22 @@ impl Builder<'_> {
                 "accessor data lies outside its buffer or is missing",
             )
         };
-        let positions: Vec<Vec3> =
-            reader.read_positions().ok_or_else(|| bad("attributes.POSITION"))?.map(Vec3::from).collect();
+        // The attributes as the gltf crate reads them (guarded: it panics on some malformed files).
+        let path = self.path;
+        let (positions, normals, uvs, indices) = guarded(path, &here, || {
+            let positions: Vec<Vec3> =
+                reader.read_positions().ok_or_else(|| bad("attributes.POSITION"))?.map(Vec3::from).collect();
+            let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
+            let uvs: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
+            let indices: Option<Vec<u32>> = reader.read_indices().map(|i| i.into_u32().collect());
+            Ok((positions, normals, uvs, indices))
+        })?;
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(SceneError::invalid(
                 self.at(format!("{here}.attributes.POSITION[{i}]")),
                 format!("position {} is not finite", positions[i]),
             ));
         }
-        let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
         if let Some(n) = &normals {
             if n.len() != positions.len() {
                 return Err(bad("attributes.NORMAL"));
@@ -183,7 +212,6 @@ impl Builder<'_> {
                 ));
             }
         }
-        let uvs: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
         if let Some(t) = &uvs
             && (t.len() != positions.len() || t.iter().any(|v| !v.is_finite()))
         {
@@ -192,8 +220,8 @@ impl Builder<'_> {
                 "texture coordinates are not finite or do not match the positions",
             ));
         }
-        let indices: Vec<u32> = match reader.read_indices() {
-            Some(i) => i.into_u32().collect(),
+        let indices: Vec<u32> = match indices {
+            Some(i) => i,
             None if prim.indices().is_some() => return Err(bad("indices")),
             None => (0..positions.len() as u32).collect(),
         };

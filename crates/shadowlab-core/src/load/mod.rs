@@ -47,20 +47,39 @@ pub fn load_scene(spec: &str) -> Result<Loaded> {
 pub fn load_scene_with(spec: &str, options: LoadOptions) -> Result<Loaded> {
     let path = Path::new(spec);
     if path.exists() || spec.contains(['/', '\\']) || has_scene_extension(path) {
-        let mut loaded = load_file(path)?;
-        if options.emissive_lights {
-            let warnings = emissive::lights_from_emissive(&mut loaded.scene);
-            loaded.warnings.extend(warnings);
-        }
-        add_defaults(&mut loaded);
-        loaded.scene.validate().map_err(|e| e.in_file(path))?;
-        loaded.scene.recentre();
-        return Ok(loaded);
+        let loaded = load_file(path)?;
+        return finish_file(loaded, path, options);
     }
     let mut scene = scenes::build(spec)?;
     scene.validate()?;
     scene.recentre();
     Ok(Loaded { scene, warnings: Vec::new() })
+}
+
+/// A scene file's bytes, as [`load_scene_with`] loads the file at `path` (which names it in
+/// errors, picks the format by its extension and anchors relative paths): parsed, given defaults,
+/// validated and recentred. The loaders' fuzz targets (`fuzz/`) and their corpus replay call it.
+pub fn parse_file_bytes(bytes: &[u8], path: &Path, options: LoadOptions) -> Result<Loaded> {
+    let loaded = match extension(path).as_deref() {
+        Some("toml") => scene_file::parse(&String::from_utf8_lossy(bytes), path)?,
+        Some("gltf" | "glb") => gltf::parse(bytes, path)?,
+        Some("obj") => obj::parse(bytes, path)?,
+        _ => return Err(SceneError::UnsupportedFormat { location: Location::file(path) }),
+    };
+    finish_file(loaded, path, options)
+}
+
+/// What every loaded file goes through: emissive lights when asked, defaults, validation,
+/// recentring.
+fn finish_file(mut loaded: Loaded, path: &Path, options: LoadOptions) -> Result<Loaded> {
+    if options.emissive_lights {
+        let warnings = emissive::lights_from_emissive(&mut loaded.scene);
+        loaded.warnings.extend(warnings);
+    }
+    add_defaults(&mut loaded);
+    loaded.scene.validate().map_err(|e| e.in_file(path))?;
+    loaded.scene.recentre();
+    Ok(loaded)
 }
 
 fn has_scene_extension(path: &Path) -> bool {
@@ -78,6 +97,13 @@ pub fn load_file(path: &Path) -> Result<Loaded> {
         return Err(SceneError::Io {
             location: Location::file(path),
             source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    // A directory or a device (`/dev/zero`) is not a scene: refuse before reading it.
+    if !path.is_file() {
+        return Err(SceneError::Io {
+            location: Location::file(path),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"),
         });
     }
     match extension(path).as_deref() {

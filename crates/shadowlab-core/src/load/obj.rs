@@ -135,7 +135,13 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
     // Materials from the libraries, then a material per used slot.
     let mut library: FxHashMap<String, Material> = FxHashMap::default();
     for (lib, line) in &libraries {
-        match std::fs::read(lib) {
+        // Only regular files: a library named `/dev/zero` would be read forever.
+        let read = if !lib.exists() || lib.is_file() {
+            std::fs::read(lib)
+        } else {
+            Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"))
+        };
+        match read {
             Ok(bytes) => match parse_mtl(&bytes, lib, &mut warnings) {
                 Ok(mats) => library.extend(mats.into_iter().map(|m| (m.name.clone(), m))),
                 Err(e) => warnings.push(format!("{e} (material library ignored)")),

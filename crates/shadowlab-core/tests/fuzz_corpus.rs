@@ -39,7 +39,8 @@ fn replay(target: &str, extension: &str, options: impl Fn(&[u8]) -> LoadOptions)
 fn the_obj_corpus_loads_or_fails_cleanly() {
     let (n, loaded) = replay("obj", "obj", |d| LoadOptions { emissive_lights: d.len() % 2 == 0 });
     println!("obj: {n} inputs, {loaded} scenes");
-    // The seeds (a small mesh, a quad) load: the replay reaches the whole loader.
+    // The seeds (a small mesh, a quad) load: the replay reaches the whole loader (measured: 591 of
+    // 1369 inputs load; at least the two seeds must).
     assert!(n >= 2 && loaded >= 2, "{n} inputs, {loaded} loaded");
 }
 
@@ -47,7 +48,7 @@ fn the_obj_corpus_loads_or_fails_cleanly() {
 fn the_gltf_corpus_loads_or_fails_cleanly() {
     let (n, loaded) = replay("gltf", "glb", |d| LoadOptions { emissive_lights: d.len() % 2 == 0 });
     println!("gltf: {n} inputs, {loaded} scenes");
-    // The seeds: a glTF and a GLB of the same card.
+    // The seeds, a glTF and a GLB of the same card, load (measured: 46 of 5552 inputs load).
     assert!(n >= 2 && loaded >= 2, "{n} inputs, {loaded} loaded");
 }
 
@@ -55,7 +56,8 @@ fn the_gltf_corpus_loads_or_fails_cleanly() {
 fn the_scene_file_corpus_loads_or_fails_cleanly() {
     let (n, loaded) = replay("scene_toml", "toml", |_| LoadOptions::default());
     println!("scene_toml: {n} inputs, {loaded} scenes");
-    // The seeds include the format document's example (inline primitives: it loads).
+    // The seeds include the format document's example (inline primitives: it loads; measured 37
+    // of 2879 inputs load).
     assert!(n >= 3 && loaded >= 1, "{n} inputs, {loaded} loaded");
 }
 

@@ -5,13 +5,19 @@
 
 use glam::Vec4;
 use shadowlab_core::lightspace::{LightFrusta, light_frusta};
-use shadowlab_core::{Aabb, Light, Mobility, ParamSet};
+use shadowlab_core::{Aabb, Light, ParamSet};
 
 use crate::context::Shared;
 use crate::live::MapViews;
 use crate::live::validity::hash_values;
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, lookup_group, single_selection};
 use crate::technique::{FrameContext, TechniqueError};
+
+/// The layers a light map of `views` views asks the memory budget for: a static layer each, and
+/// as many composite copies when dynamic casters exist (the most `MapViews` can hold).
+fn layers_asked(views: u32, dynamic: bool) -> u32 {
+    views * if dynamic { 2 } else { 1 }
+}
 
 pub struct LightMap {
     /// `None` until the first update (the views need the light and the scene's bounds).
@@ -85,8 +91,7 @@ impl LightMap {
     /// (its views, twice as many when `dynamic` casters may need composite copies).
     pub fn demand(p: &ParamSet, light: &Light, bounds: &Aabb, dynamic: bool) -> (u32, u32) {
         let size = p.int("map_size") as u32;
-        let views = light_frusta(light, bounds, size).views.len() as u32;
-        (size, views * if dynamic { 2 } else { 1 })
+        (size, layers_asked(light_frusta(light, bounds, size).views.len() as u32, dynamic))
     }
 
     /// The size of the maps allocated (the asked one unless the memory budget cut it).
@@ -99,8 +104,8 @@ impl LightMap {
     pub fn update(&mut self, ctx: &mut FrameContext<'_>) -> Result<u32, TechniqueError> {
         let mut frusta = light_frusta(ctx.light, &ctx.gpu_scene.bounds, self.size);
         let n = frusta.views.len() as u32;
-        let dynamic = ctx.live.scene().instances.iter().any(|i| i.mobility == Mobility::Dynamic && i.casts_shadows);
-        let size = ctx.cache.grant_map_size(ctx.light_id, ctx.owner, self.size, n * if dynamic { 2 } else { 1 });
+        let layers = layers_asked(n, ctx.live.has_dynamic_casters());
+        let size = ctx.cache.grant_map_size(ctx.light_id, ctx.owner, self.size, layers);
         if size != self.size {
             frusta = light_frusta(ctx.light, &ctx.gpu_scene.bounds, size);
         }

@@ -11,7 +11,7 @@
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 
-use shadowlab_core::{LightId, Mobility, Scene};
+use shadowlab_core::{LightId, Scene};
 
 use crate::auto::Preference;
 use crate::context::{RegionUniform, Shared};
@@ -528,7 +528,7 @@ impl Shadows {
     /// Plans the budget's shares (when the demands changed) and hands them to the cache by owner.
     fn plan_map_memory(&mut self, camera: &CameraUniform) {
         let bounds = self.gpu_scene.bounds;
-        let dynamic = self.live.scene().instances.iter().any(|i| i.mobility == Mobility::Dynamic && i.casts_shadows);
+        let dynamic = self.live.has_dynamic_casters();
         let mut demands: Vec<(LightId, usize, u64)> = Vec::new();
         let mut key = std::hash::DefaultHasher::new();
         self.map_budget.hash(&mut key);

@@ -23,6 +23,7 @@ fn the_technique_spec_corpus_parses_or_fails_cleanly() {
         n += 1;
     }
     println!("technique_spec: {n} inputs, {parsed} parsed");
-    // The seeds name every technique with parameters: the replay reaches the whole parser.
-    assert!(n >= 15 && parsed >= 13, "{n} inputs, {parsed} parsed");
+    // The seeds name every technique with parameters: 14 of the 17 seeds parse (`auto` is the
+    // CLI's, two set unknown keys); measured 73 of 453 inputs parse.
+    assert!(n >= 17 && parsed >= 14, "{n} inputs, {parsed} parsed");
 }

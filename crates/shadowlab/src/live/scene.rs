@@ -117,6 +117,11 @@ impl LiveScene {
         self.permanent_epoch
     }
 
+    /// Whether some dynamic instance casts shadows (map views may then need composite copies).
+    pub fn has_dynamic_casters(&self) -> bool {
+        self.scene.instances.iter().any(|i| i.mobility == Mobility::Dynamic && i.casts_shadows)
+    }
+
     /// The temporary (dragged) instances, in scene order: their states (id, version, bounds).
     pub fn temporary_states(&self) -> Vec<InstanceState> {
         self.scene

@@ -274,4 +274,16 @@ fn sixty_four_lights_fit_the_map_budget_and_all_still_cast() {
     for ((l, a), (_, b)) in live.iter().zip(&fresh) {
         assert!(a == b, "light {l}: the live engine differs from a fresh one under the budget");
     }
+
+    // Edits that change the demands re-plan the shares: a light removed (the others' shares grow)
+    // and a lamp moved; after each the live engine equals a fresh one.
+    r.apply(Edit::RemoveLight(LightId(63))).unwrap();
+    let moved = r.scene().lights[10].position().unwrap() + Vec3::new(0.1, 0.0, 0.1);
+    r.apply(Edit::Light { light: LightId(10), change: LightChange::Position(moved) }).unwrap();
+    r.render().unwrap();
+    let (live, fresh) = (r.live_visibility().unwrap(), r.fresh_visibility().unwrap());
+    assert_eq!(live.len(), 63);
+    for ((l, a), (_, b)) in live.iter().zip(&fresh) {
+        assert!(a == b, "light {l}: after the edits the live engine differs from a fresh one under the budget");
+    }
 }

@@ -686,6 +686,9 @@ impl Shadows {
         let casting = TemporaryShadows::active(&self.live);
         let temporaries = self.live.temporary_states();
         for (k, s) in self.lights.iter_mut().enumerate() {
+            if !casting {
+                s.temporary.release();
+            }
             let Some(light) = self.live.light(s.light) else { continue };
             // The best allowed rung with something complete to show; none: unshadowed.
             let shown = (0..s.rungs.len().min(rungs)).rev().find(|&r| s.rungs[r].technique.shown());

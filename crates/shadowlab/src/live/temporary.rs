@@ -29,9 +29,6 @@ pub fn map_size(width: u32, height: u32) -> u32 {
     (2 * width.max(height)).next_power_of_two().clamp(256, 1024)
 }
 
-/// Temporary views are allocated in groups of this many.
-const VIEW_STEP: u32 = 8;
-
 /// The bias of `hard`'s defaults (texels along the normal; slope-scaled raster bias).
 const NORMAL_OFFSET: f32 = 0.3;
 const SLOPE_BIAS: f32 = 1.5;
@@ -89,6 +86,11 @@ impl TemporaryShadows {
         self.raw.as_ref().expect("made above")
     }
 
+    /// Frees the layer and maps once nothing is dragged: a drag holds them, a still scene does not.
+    pub fn release(&mut self) {
+        (self.raw, self.maps) = (None, None);
+    }
+
     pub fn bytes(&self) -> u64 {
         self.raw.as_ref().map_or(0, VisibilityLayer::bytes) + self.maps.as_ref().map_or(0, |m| m.0.bytes())
     }
@@ -126,9 +128,9 @@ impl TemporaryShadows {
         };
         let n = views.len() as u32;
         if self.maps.as_ref().is_none_or(|(m, _)| m.layers < n || m.size != size) {
-            // Room for views in steps of eight, so that objects picked up and released in turn do
-            // not reallocate (and memory stays put under any sequence of drags).
-            let capacity = n.div_ceil(VIEW_STEP).max(1) * VIEW_STEP;
+            // Room for a power of two of views: a 1024² layer is 4 MiB, so no spare layers for one
+            // object's single frustum, yet a drag that grows from one view to six reallocates once.
+            let capacity = n.max(1).next_power_of_two();
             let maps = ShadowMapArray::new(shared, size, capacity, capacity);
             let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, size as f32, 0.0), mode: Vec4::ZERO };
             ctx.gpu.queue.write_buffer(&self.bias, 0, bytemuck::bytes_of(&bias));
@@ -167,13 +169,20 @@ impl TemporaryShadows {
 
 /// The pixels a temporary object's map `view` (of `size` texels) may darken: the receivers' box
 /// (every instance's bounds) cut by the view's side planes, two texels wider than the window
-/// (the lookup's normal offset moves points by 0.3 texels), projected. A pixel outside sees a
-/// point the lookup skips (outside the window), so the raw visibility stands there.
+/// (the lookup's normal offset moves points by 0.3 texels), and by its near plane, projected. A
+/// pixel outside sees a point the lookup skips (outside the window) or finds lit: a point
+/// nearer the light than the near plane (fitted just before the object, `light_frusta`) has
+/// depth above 1, clamped to 1, as close as anything stored (reversed Z). So the raw
+/// visibility stands there, and the space between the light and the object, often a large
+/// part of the screen, is not looked up.
 fn shadow_footprint(camera: &CameraUniform, view: &ShadowView, size: u32, receivers: &Aabb) -> Footprint {
     let m = view.view_projection.transpose();
-    let (x, y, w) = (m.x_axis, m.y_axis, m.w_axis * (1.0 + 4.0 / size as f32));
+    let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
+    let wide = w * (1.0 + 4.0 / size as f32);
+    // Reversed Z: the near plane is z = w; a hair beyond it for round-off.
+    let near = w * (1.0 + 1e-4) - z;
     let mut body = ConvexBody::from_aabb(receivers);
-    for row in [w + x, w - x, w + y, w - y] {
+    for row in [wide + x, wide - x, wide + y, wide - y, near] {
         body = body.clip(&Plane { n: row.truncate(), d: row.w });
         if body.is_empty() {
             return Footprint::Nothing;
@@ -198,4 +207,60 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
             ],
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use shadowlab_core::{Light, LightKind, View};
+
+    fn camera() -> CameraUniform {
+        // Looking down the -z axis at a 10 m floor strip from the side.
+        let view = View {
+            name: "side".into(),
+            position: Vec3::new(0.0, 2.0, 12.0),
+            target: Vec3::new(0.0, 2.0, 0.0),
+            up: Vec3::Y,
+            fov_y: 60f32.to_radians(),
+            near: 0.1,
+            far: 100.0,
+        };
+        CameraUniform::from_view(&view, 200, 200)
+    }
+
+    /// A lamp high on the left, a small object below and right of it: the object's shadow falls
+    /// further right and down. The footprint covers where the shadow falls and leaves out the
+    /// space between the lamp and the object, which the side planes alone keep.
+    #[test]
+    fn the_footprint_leaves_out_the_space_between_light_and_object() {
+        let kind = LightKind::Point { position: Vec3::new(-4.0, 6.0, 0.0), radius: 0.0 };
+        let light = Light::new("lamp", kind, Vec3::ONE, 1.0);
+        let object = Aabb::new(Vec3::new(-1.2, 2.8, -0.2), Vec3::new(-0.8, 3.2, 0.2));
+        let receivers = Aabb::new(Vec3::new(-6.0, 0.0, -1.0), Vec3::new(6.0, 7.0, 1.0));
+        let size = 256;
+        let views = light_frusta(&light, &object, size).views;
+        assert_eq!(views.len(), 1, "a small object far from the lamp: one frustum");
+        let cam = camera();
+        let Footprint::Rect(rect) = shadow_footprint(&cam, &views[0], size, &receivers) else {
+            panic!("the shadow is on screen");
+        };
+        let pixel = |p: Vec3| match cam.footprint_of([p]) {
+            Footprint::Rect(r) => (r[0] + r[2] / 2, r[1] + r[3] / 2),
+            other => panic!("{p} is on screen: {other:?}"),
+        };
+        let inside =
+            |(x, y): (u32, u32)| x >= rect[0] && x < rect[0] + rect[2] && y >= rect[1] && y < rect[1] + rect[3];
+        // Beyond the object along the light's rays (the shadow) and the object itself: covered.
+        let lamp = Vec3::new(-4.0, 6.0, 0.0);
+        for t in [1.0, 1.3, 1.6] {
+            let p = lamp + (object.center() - lamp) * t;
+            assert!(inside(pixel(p)), "{p} (t = {t}) is in the shadow's footprint {rect:?}");
+        }
+        // Between the lamp and the object: left out (it was inside before the near plane cut).
+        for t in [0.2, 0.5] {
+            let p = lamp + (object.center() - lamp) * t;
+            assert!(!inside(pixel(p)), "{p} (t = {t}) lies before the object: {rect:?}");
+        }
+    }
 }

@@ -720,6 +720,16 @@ fn write_samples(queue: &wgpu::Queue, buffer: &wgpu::Buffer, stride: u64, sample
 }
 
 /// The bounds of the casters' bounding spheres.
+/// The eye as the volume planner sees it.
+fn volume_camera(ctx: &FrameContext<'_>) -> VolumeCamera {
+    let cam = &ctx.surface.camera;
+    VolumeCamera {
+        view_proj: cam.view_proj,
+        eye: cam.position.truncate(),
+        near_ndc_depth: if cam.depth.x == 0.0 { 1.0 } else { 0.0 },
+    }
+}
+
 fn caster_bounds(casters: &[Caster]) -> shadowlab_core::Aabb {
     shadowlab_core::Aabb::from_points(
         casters.iter().flat_map(|c| [c.centre - glam::Vec3::splat(c.radius), c.centre + glam::Vec3::splat(c.radius)]),
@@ -933,12 +943,7 @@ impl ShadowTechnique for Volumes {
             r.map.update(ctx)?;
         }
         let (Some(state), Some(store)) = (&self.state, &self.store) else { return Ok(()) };
-        let cam = &ctx.surface.camera;
-        let camera = VolumeCamera {
-            view_proj: cam.view_proj,
-            eye: cam.position.truncate(),
-            near_ndc_depth: if cam.depth.x == 0.0 { 1.0 } else { 0.0 },
-        };
+        let camera = volume_camera(ctx);
         if self.settings.focus {
             self.focus_spheres = focus_spheres(ctx.live);
         }
@@ -1014,6 +1019,8 @@ impl ShadowTechnique for Volumes {
         let region = ctx.region_rect();
         let [_, _, rw, rh] = ctx.resolve_rect();
         let single = self.samples.len() == 1;
+        let camera = volume_camera(ctx);
+        let size = (ctx.surface.width, ctx.surface.height);
         if measure {
             ctx.encoder.clear_buffer(&state.fill, 0, None);
         }
@@ -1067,9 +1074,20 @@ impl ShadowTechnique for Volumes {
                     && scissor_to(&mut pass, region, plan.scissor.or(focus_scissor))
                 {
                     pass.set_vertex_buffer(0, store.vertices().slice(..));
+                    // In a region, only the casters whose volumes reach it.
+                    let in_region;
+                    let casters = match region {
+                        Some(rect) => {
+                            let source = LightSource::of_sample(self.samples[i].sample);
+                            let (casters, slots) = (&self.casters, &store.slot_of);
+                            in_region = plan::region_casters(plan, &camera, &source, casters, slots, rect, size);
+                            &in_region
+                        }
+                        None => &plan.casters,
+                    };
                     // The drawn casters' regions, as runs of consecutive slots: one multi-draw each.
-                    let all = runs(plan.casters.iter().map(|d| d.slot));
-                    let listed = runs(plan.casters.iter().filter(|d| d.zp_listed).map(|d| d.slot));
+                    let all = runs(casters.iter().map(|d| d.slot));
+                    let listed = runs(casters.iter().filter(|d| d.zp_listed).map(|d| d.slot));
                     let list = method_draws(&plan.method);
                     let clamp_for = |counting: Counting| match counting {
                         Counting::Pass => plan.robust,

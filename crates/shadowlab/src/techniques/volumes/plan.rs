@@ -220,6 +220,33 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
     plan
 }
 
+/// The casters of `plan` whose volumes may reach the pixels `rect` (x, y, width, height) of a
+/// `width × height` surface: the plan's own culling (Hasselgren 2003 §3.3.1.2) against the
+/// frustum through that rectangle. A resolve limited to a region (a dragged object's footprint)
+/// counts only there, and a volume outside the region's frustum adds nothing to any count inside
+/// it, whichever the method: z-pass and ZP+ count between the near plane and the surface, z-fail
+/// behind the surface, all within the frustum.
+pub(super) fn region_casters(
+    plan: &SamplePlan,
+    camera: &VolumeCamera,
+    source: &LightSource,
+    casters: &[Caster],
+    slots: &[u32],
+    rect: [u32; 4],
+    size: (u32, u32),
+) -> Vec<Drawn> {
+    let (w, h) = (size.0.max(1) as f32, size.1.max(1) as f32);
+    let [x, y, rw, rh] = rect.map(|v| v as f32);
+    let ndc = [2.0 * x / w - 1.0, 1.0 - 2.0 * (y + rh) / h, 2.0 * (x + rw) / w - 1.0, 1.0 - 2.0 * y / h];
+    let planes = camera.planes(ndc);
+    let mut reaches = vec![false; slots.iter().max().map_or(0, |&m| m as usize + 1)];
+    for (c, &slot) in casters.iter().zip(slots) {
+        reaches[slot as usize] = planes.iter().all(|&pl| sphere_volume_reaches_plane(source, c.centre, c.radius, pl));
+    }
+    // A slot without a caster cannot happen; drawing it is the safe side.
+    plan.casters.iter().copied().filter(|d| reaches.get(d.slot as usize).is_none_or(|&r| r)).collect()
+}
+
 /// The union of the focus receivers' screen rectangles (bounding spheres), within `within` (NDC
 /// [x0, y0, x1, y1]); `None` when none is on screen (Hasselgren 2003 §3.3.1.1, merged per light).
 pub(crate) fn focus_ndc(camera: &VolumeCamera, focus: &[(Vec3, f32)], within: [f32; 4]) -> Option<[f32; 4]> {

@@ -23,6 +23,10 @@ pub struct SceneArgs {
     /// A named view of the scene (default: its first view).
     #[arg(long)]
     pub view: Option<String>,
+    /// A camera of your own instead of a named view: `X,Y,Z:TX,TY,TZ[:FOV_DEGREES]` (eye, target,
+    /// vertical field of view; near and far from the view). The viewer's "copy command" writes it.
+    #[arg(long, value_name = "EYE:TARGET[:FOV]", allow_hyphen_values = true)]
+    pub camera: Option<String>,
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "256x256", value_parser = parse_size)]
     pub size: (u32, u32),
@@ -83,6 +87,10 @@ impl SceneArgs {
                 format!("scene '{}' has no view '{name}' (views: {})", scene.name, known.join(", "))
             })?,
             None => scene.views.first().cloned().context("the scene has no views")?,
+        };
+        let view = match &self.camera {
+            Some(text) => View::with_camera_text(&view, text).map_err(|e| anyhow::anyhow!("--camera: {e}"))?,
+            None => view,
         };
         let lights = if self.lights.is_empty() {
             (0..scene.lights.len() as u32).map(LightId).collect()

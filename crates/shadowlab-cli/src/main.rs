@@ -47,6 +47,9 @@ enum Command {
     /// Precompute the light meshes of the static lights (no GPU): static receivers cut along the
     /// static shadows, lit pieces only (Hasselgren 2003), for the `lightmesh` technique.
     Precompute(commands::precompute::Args),
+    /// Open the interactive viewer (as `shadowlab-viewer`): fly, drag objects, switch each light's
+    /// technique and parameters live, overlays.
+    View(commands::view::Args),
 }
 
 fn main() {
@@ -61,6 +64,7 @@ fn main() {
         Command::Bench(a) => commands::bench::run(&cli.global, a),
         Command::Calibrate(a) => commands::calibrate::run(&cli.global, a),
         Command::Analyze(a) => commands::analyze::run(&cli.global, a),
+        Command::View(a) => commands::view::run(&cli.global, a),
         Command::Play(a) => commands::play::run(&cli.global, a),
         Command::Precompute(a) => commands::precompute::run(&cli.global, a),
     };

@@ -21,6 +21,43 @@ pub struct View {
 }
 
 impl View {
+    /// `base` moved to the camera `text` = `X,Y,Z:TX,TY,TZ[:FOV]` (eye, target, vertical field of
+    /// view in degrees; default `base`'s), as the CLI's `--camera` and the viewer's "copy
+    /// command" write it. Near and far stay `base`'s.
+    pub fn with_camera_text(base: &View, text: &str) -> Result<View, String> {
+        let parts: Vec<&str> = text.split(':').collect();
+        if !(2..=3).contains(&parts.len()) {
+            return Err(format!("camera '{text}' is not X,Y,Z:TX,TY,TZ[:FOV_DEGREES]"));
+        }
+        let point = |part: &str| -> Result<Vec3, String> {
+            let v: Vec<f32> = part
+                .split(',')
+                .map(|c| c.trim().parse::<f32>().map_err(|_| format!("'{c}' in camera '{text}' is not a number")))
+                .collect::<Result<_, _>>()?;
+            match v[..] {
+                [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+                _ => Err(format!("'{part}' in camera '{text}' is not three finite numbers X,Y,Z")),
+            }
+        };
+        let (position, target) = (point(parts[0])?, point(parts[1])?);
+        if position.distance(target) <= 1e-6 * position.length().max(1.0) {
+            return Err(format!("camera '{text}': the eye and the target are the same point"));
+        }
+        let fov_y = match parts.get(2) {
+            Some(f) => {
+                let degrees: f32 =
+                    f.trim().parse().map_err(|_| format!("field of view '{f}' in camera '{text}' is not a number"))?;
+                if !(1.0..=170.0).contains(&degrees) {
+                    return Err(format!("field of view {degrees}° in camera '{text}' is outside 1..=170"));
+                }
+                degrees.to_radians()
+            }
+            None => base.fov_y,
+        };
+        let up = if (target - position).normalize().cross(Vec3::Y).length() < 1e-3 { Vec3::Z } else { Vec3::Y };
+        Ok(View { name: "camera".into(), position, target, up, fov_y, near: base.near, far: base.far })
+    }
+
     /// A view with a 60° vertical field of view.
     pub fn new(name: impl Into<String>, position: Vec3, target: Vec3, near: f32, far: f32) -> Self {
         Self { name: name.into(), position, target, up: Vec3::Y, fov_y: 60f32.to_radians(), near, far }
@@ -152,6 +189,24 @@ impl CameraPath {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn camera_text_parses_and_bad_text_is_an_error() {
+        let base = View::new("base", Vec3::ZERO, Vec3::NEG_Z, 0.05, 40.0);
+        let v = View::with_camera_text(&base, "1,2,3:0,1,0:45").expect("valid");
+        assert_eq!((v.position, v.target), (Vec3::new(1.0, 2.0, 3.0), Vec3::Y));
+        assert!((v.fov_y.to_degrees() - 45.0).abs() < 1e-4);
+        assert_eq!((v.near, v.far), (0.05, 40.0), "near and far are the base view's");
+        assert_eq!(View::with_camera_text(&base, "1,2,3:0,1,0").expect("valid").fov_y, base.fov_y);
+        for bad in
+            ["", "1,2,3", "1,2:0,0,0", "1,2,3:1,2,3", "nan,0,0:1,1,1", "0,0,0:1,1,1:0", "0,0,0:1,1,1:x", "a:b:c:d"]
+        {
+            assert!(View::with_camera_text(&base, bad).is_err(), "'{bad}' is refused");
+        }
+        // Looking straight down picks another up vector.
+        let down = View::with_camera_text(&base, "0,5,0:0,0,0").expect("valid");
+        assert_eq!(down.up, Vec3::Z);
+    }
     use glam::Vec4Swizzles;
 
     #[test]

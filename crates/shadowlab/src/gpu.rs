@@ -147,6 +147,12 @@ impl Gpu {
                 BackendChoice::Gl => "GL",
             },
         })?;
+        Self::open(&adapter).await
+    }
+
+    /// Opens a device on `adapter` with the features and limits shadowlab wants (an application
+    /// that owns a window picks the adapter that can present to it, then opens it here).
+    pub async fn open(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
         let info = adapter.get_info();
         let features = adapter.features() & wanted_features();
         let mut limits = wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits());

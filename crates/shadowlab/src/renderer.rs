@@ -371,6 +371,12 @@ impl Renderer {
         Ok(rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
     }
 
+    /// The tone-mapped image (`OUTPUT_FORMAT`, sampled and copied from), for an application that
+    /// shows it itself (the viewer draws it inside its window).
+    pub fn output_texture(&self) -> &wgpu::Texture {
+        &self.targets.output
+    }
+
     /// A light's visibility layer as floats (row-major, top row first).
     pub fn read_visibility(&self, light: LightId) -> Result<Option<Vec<f32>>, GpuError> {
         match self.shadows.lights.iter().find(|s| s.light == light) {
@@ -726,6 +732,13 @@ impl Renderer {
             }
         }
         Ok(total)
+    }
+
+    /// The map views (cube faces, cascade splits) `light`'s technique shaded the last frame from;
+    /// empty for techniques without one map per pixel.
+    pub fn light_views(&self, light: LightId) -> Vec<shadowlab_core::lightspace::ShadowView> {
+        let Some(s) = self.shadows.lights.iter().find(|s| s.light == light) else { return Vec::new() };
+        s.shown_technique().analysis().map_or_else(Vec::new, |a| a.views.to_vec())
     }
 
     /// Analyses the maps of `light`'s technique for the last rendered frame; `None` when the

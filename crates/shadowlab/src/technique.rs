@@ -140,6 +140,8 @@ pub struct MapAnalysis<'a> {
     pub lookup: &'a wgpu::BindGroup,
     /// Group 3 of `shaders/selection.wgsl`.
     pub selection: &'a wgpu::BindGroup,
+    /// The map views (cube faces, cascade splits) on the CPU, for drawing their frusta.
+    pub views: &'a [shadowlab_core::lightspace::ShadowView],
 }
 
 /// The technique contract of DESIGN.md §5.

@@ -216,6 +216,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let scene_args = SceneArgs {
         scene: args.scene.clone(),
         view: None,
+        camera: None,
         size: args.size,
         lights: args.lights.clone(),
         emitter_scale: args.emitter_scale,

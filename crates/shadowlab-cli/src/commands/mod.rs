@@ -9,3 +9,4 @@ pub mod reference;
 pub mod render;
 pub mod scenes;
 pub mod techniques;
+pub mod view;

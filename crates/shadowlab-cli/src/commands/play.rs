@@ -196,6 +196,7 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     let scene_args = SceneArgs {
         scene: args.scene.clone(),
         view: args.view.clone(),
+        camera: None,
         size: args.size,
         lights: Vec::new(),
         emitter_scale: args.emitter_scale,

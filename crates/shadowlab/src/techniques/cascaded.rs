@@ -328,6 +328,10 @@ impl ShadowTechnique for Cascaded {
     }
 
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
-        self.state.as_ref().map(|s| MapAnalysis { lookup: &s.lookup, selection: &s.selection_group })
+        self.state.as_ref().map(|s| MapAnalysis {
+            lookup: &s.lookup,
+            selection: &s.selection_group,
+            views: s.maps.views(),
+        })
     }
 }

@@ -133,7 +133,7 @@ impl ShadowTechnique for MapLookup {
 
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
         let m = self.map.as_ref()?;
-        Some(MapAnalysis { lookup: m.group()?, selection: &m.selection })
+        Some(MapAnalysis { lookup: m.group()?, selection: &m.selection, views: &m.frusta.views })
     }
 
     fn hand_over(&mut self) -> Option<Handover> {

@@ -430,6 +430,6 @@ impl ShadowTechnique for Smoothies {
 
     fn analysis(&self) -> Option<MapAnalysis<'_>> {
         let m = self.map.as_ref()?;
-        Some(MapAnalysis { lookup: m.group()?, selection: &m.selection })
+        Some(MapAnalysis { lookup: m.group()?, selection: &m.selection, views: &m.frusta.views })
     }
 }

@@ -1,0 +1,186 @@
+//! The third-person view (Stingl 2011 §5): the scene seen from a second camera, with the eye's
+//! frustum and the selected light's map frusta (cube faces, cascade splits) drawn in, and the eye's
+//! own image as a minimap. The frusta are those the eye's techniques used for the frame shown.
+
+use glam::{Mat4, Vec3, Vec4};
+use shadowlab::{Gpu, Renderer, TechniqueSpec};
+use shadowlab_core::lightspace::ShadowView;
+use shadowlab_core::{LightId, Scene, View};
+
+use crate::camera::FlyCamera;
+use crate::viewer::ViewerError;
+
+/// A world-space line segment and its colour (RGB).
+pub type Segment = ([Vec3; 2], [u8; 3]);
+
+/// The eye's frustum colour, and one per map view (the maps overlay's).
+pub const EYE_COLOUR: [u8; 3] = [255, 255, 255];
+pub const VIEW_COLOURS: [[u8; 3]; 6] =
+    [[230, 60, 60], [60, 200, 80], [70, 110, 240], [240, 200, 50], [200, 80, 220], [60, 210, 220]];
+
+/// The second camera's renderer, rebuilt from the live scene whenever an edit or a technique change
+/// made it stale.
+pub struct ThirdPerson {
+    pub renderer: Renderer,
+    pub camera: FlyCamera,
+    /// The scene epoch and the techniques' version it was built for.
+    built: (u64, u64),
+}
+
+impl ThirdPerson {
+    /// Starts behind and above `eye`, looking at where the eye looks, inside the scene's box.
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        specs: &[TechniqueSpec],
+        eye: &FlyCamera,
+        size: (u32, u32),
+        built: (u64, u64),
+    ) -> Result<Self, ViewerError> {
+        let bounds = scene.bounds();
+        let diagonal = bounds.diagonal().max(1e-3);
+        let inner = shrink(&bounds, 0.05);
+        let back = eye.position - eye.forward() * 0.35 * diagonal + Vec3::Y * 0.25 * diagonal;
+        let position = back.clamp(inner.min, inner.max);
+        let target = eye.position + eye.forward() * 0.1 * diagonal;
+        let view = View {
+            name: "third person".into(),
+            position,
+            target: if target.distance(position) > 1e-4 { target } else { position + eye.forward() },
+            up: Vec3::Y,
+            fov_y: 70f32.to_radians(),
+            near: eye.near,
+            far: eye.far.max(4.0 * diagonal),
+        };
+        let camera = FlyCamera::from_view(&view, diagonal);
+        let renderer = build(gpu, scene, specs, &view, size)?;
+        Ok(Self { renderer, camera, built })
+    }
+
+    /// Renders from the third-person camera, rebuilding first when `built` moved on.
+    pub fn render(
+        &mut self,
+        gpu: &Gpu,
+        scene: &Scene,
+        specs: &[TechniqueSpec],
+        size: (u32, u32),
+        built: (u64, u64),
+    ) -> Result<(), ViewerError> {
+        let view = self.camera.view();
+        if built != self.built || (self.renderer.width, self.renderer.height) != size {
+            self.renderer = build(gpu, scene, specs, &view, size)?;
+            self.built = built;
+        }
+        self.renderer.set_view(&view);
+        self.renderer.render()?;
+        Ok(())
+    }
+}
+
+fn build(
+    gpu: &Gpu,
+    scene: &Scene,
+    specs: &[TechniqueSpec],
+    view: &View,
+    size: (u32, u32),
+) -> Result<Renderer, ViewerError> {
+    let mut r = Renderer::new(gpu, scene.clone(), view, size.0, size.1);
+    for (i, spec) in specs.iter().enumerate() {
+        r.set_technique(LightId(i as u32), spec)?;
+    }
+    Ok(r)
+}
+
+fn shrink(b: &shadowlab_core::Aabb, fraction: f32) -> shadowlab_core::Aabb {
+    let e = (b.max - b.min) * fraction;
+    shadowlab_core::Aabb::new(b.min + e, b.max - e)
+}
+
+/// The eye's frustum, from its near plane to `reach` (the far plane is often kilometres away).
+pub fn eye_frustum(eye: &View, aspect: f32, reach: f32) -> Vec<Segment> {
+    let f = (eye.target - eye.position).normalize_or(Vec3::NEG_Z);
+    let r = f.cross(eye.up).normalize_or(Vec3::X);
+    let u = r.cross(f);
+    let t = (0.5 * eye.fov_y).tan();
+    let ring = |d: f32| {
+        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .map(|(x, y): (f32, f32)| eye.position + f * d + r * (x * d * t * aspect) + u * (y * d * t))
+    };
+    box_segments(ring(eye.near), ring(eye.far.min(reach).max(eye.near)), EYE_COLOUR)
+}
+
+/// A map view's frustum: its near and far rectangles and the edges between them.
+pub fn view_frustum(view: &ShadowView, colour: [u8; 3]) -> Vec<Segment> {
+    let inverse = view.view_projection.inverse();
+    // Reversed Z: depth 1 at the near plane, 0 at the far one.
+    let ring = |z: f32| {
+        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, y)| inverse.project_point3(Vec3::new(x, y, z)))
+    };
+    box_segments(ring(1.0), ring(0.0), colour)
+}
+
+fn box_segments(near: [Vec3; 4], far: [Vec3; 4], colour: [u8; 3]) -> Vec<Segment> {
+    let mut s = Vec::with_capacity(12);
+    for k in 0..4 {
+        s.push(([near[k], near[(k + 1) % 4]], colour));
+        s.push(([far[k], far[(k + 1) % 4]], colour));
+        s.push(([near[k], far[k]], colour));
+    }
+    s.retain(|([a, b], _)| a.is_finite() && b.is_finite());
+    s
+}
+
+/// `segment` in the pixels of a `width × height` image seen through `view_proj`: clipped to the
+/// part in front of the camera (w above a small positive bound), `None` when nothing is.
+pub fn project_segment(view_proj: &Mat4, [a, b]: [Vec3; 2], width: u32, height: u32) -> Option<[glam::Vec2; 2]> {
+    let (mut ca, mut cb) = (*view_proj * a.extend(1.0), *view_proj * b.extend(1.0));
+    const MIN_W: f32 = 1e-4;
+    if ca.w < MIN_W && cb.w < MIN_W {
+        return None;
+    }
+    let cut = |p: Vec4, q: Vec4| p + (q - p) * ((MIN_W - p.w) / (q.w - p.w));
+    if ca.w < MIN_W {
+        ca = cut(ca, cb);
+    } else if cb.w < MIN_W {
+        cb = cut(cb, ca);
+    }
+    let pixel =
+        |c: Vec4| glam::Vec2::new((c.x / c.w * 0.5 + 0.5) * width as f32, (0.5 - c.y / c.w * 0.5) * height as f32);
+    let (pa, pb) = (pixel(ca), pixel(cb));
+    (pa.is_finite() && pb.is_finite()).then_some([pa, pb])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segments_project_to_pixels_and_are_cut_at_the_camera() {
+        let view = View::new("v", Vec3::ZERO, Vec3::NEG_Z, 0.1, 100.0);
+        let m = view.view_projection(100, 100);
+        // A point straight ahead lands in the middle.
+        let [p, q] = project_segment(&m, [Vec3::new(0.0, 0.0, -5.0), Vec3::new(1.0, 0.0, -5.0)], 100, 100).unwrap();
+        assert!((p - glam::Vec2::splat(50.0)).length() < 1e-3, "{p}");
+        assert!(q.x > p.x && (q.y - p.y).abs() < 1e-3, "right is right: {q}");
+        // Entirely behind: nothing; crossing the eye's plane: cut, finite.
+        assert!(project_segment(&m, [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 2.0)], 100, 100).is_none());
+        let cut = project_segment(&m, [Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.5, 0.0, -2.0)], 100, 100).unwrap();
+        assert!(cut.iter().all(|c| c.is_finite()));
+    }
+
+    #[test]
+    fn a_map_frustum_has_twelve_edges_through_its_eye() {
+        let v = ShadowView::perspective(Vec3::new(0.0, 3.0, 0.0), Vec3::NEG_Y, 1.0, 0.5, 4.0, 256);
+        let s = view_frustum(&v, [1, 2, 3]);
+        assert_eq!(s.len(), 12);
+        // The side edges run along rays from the light.
+        for ([a, b], _) in s.iter().filter(|([a, b], _)| (a.y - b.y).abs() > 1.0) {
+            let (da, db) = ((*a - v.eye).normalize(), (*b - v.eye).normalize());
+            assert!(da.abs_diff_eq(db, 1e-3), "{a} {b}");
+        }
+        let eye = View::new("e", Vec3::ZERO, Vec3::NEG_Z, 0.1, 1000.0);
+        let e = eye_frustum(&eye, 1.5, 10.0);
+        assert_eq!(e.len(), 12);
+        assert!(e.iter().all(|([a, b], _)| a.length() <= 20.0 && b.length() <= 20.0), "cut at the reach");
+    }
+}

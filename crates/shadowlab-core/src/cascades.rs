@@ -174,6 +174,40 @@ pub fn perspective_error(z: f32, near: f32, far: f32, theta: f32, n_warp: f32) -
     (mx, mz)
 }
 
+/// The predicted perspective aliasing error of each split along the view direction (above 1: a
+/// texel spans more than a pixel): `steps + 1` samples `(z, m_x, m_z)` per split, at eye depths spaced geometrically over it
+/// ([`perspective_error`] times the image/map resolution ratios of a `width × height` image and
+/// `map_size`² maps; `focused` is the same frame with focusing on, whose texel size scales the
+/// unfocused prediction to the maps actually used). `shadowlab analyze` writes them; the viewer
+/// draws them live.
+pub fn aliasing_curves(
+    frame: &CascadeFrame,
+    focused: &CascadeFrame,
+    fov_y: f32,
+    (width, height): (u32, u32),
+    map_size: u32,
+    steps: usize,
+) -> Vec<Vec<(f32, f32, f32)>> {
+    let theta = 0.5 * fov_y;
+    let size = map_size.max(1) as f32;
+    frame
+        .cascades
+        .iter()
+        .zip(&focused.cascades)
+        .map(|(c, f)| {
+            let scale = c.view.texel_scale / f.view.texel_scale.max(1e-12);
+            let (rx, ry) = (width as f32 / size * scale, height as f32 / size * scale);
+            (0..=steps)
+                .map(|k| {
+                    let z = c.near * (c.far / c.near).powf(k as f32 / steps.max(1) as f32);
+                    let (mx, mz) = perspective_error(z, c.near, c.far, theta, c.warp_n);
+                    (z, rx * mx, ry * mz)
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// Stingl's sampling-frequency colour map (Listing A.3): shadow-map texels per screen pixel →
 /// dark red (heavy undersampling) … green (1) … dark blue (heavy oversampling).
 pub fn sampling_colour(area: f32) -> Vec3 {

@@ -106,6 +106,9 @@ impl Headless {
                 let view = View::with_camera_text(&v.camera.view(), text).map_err(|e| at(ViewerError::Other(e)))?;
                 v.camera = crate::camera::FlyCamera::from_view(&view, v.scene().bounds().diagonal());
             }
+            if let Some(spec) = &step.ab {
+                v.set_ab((!spec.is_empty()).then_some(spec.as_str())).map_err(at)?;
+            }
             if let Some(on) = step.third_person {
                 v.set_third_person(on).map_err(at)?;
             }

@@ -119,7 +119,7 @@ impl Painter {
 /// The eye's image into `target`: a GPU copy of the sRGB output, or the overlay composed on the CPU.
 fn write_or_copy(gpu: &Gpu, viewer: &Viewer, target: &wgpu::Texture) -> Result<(), ViewerError> {
     let (w, h) = viewer.size();
-    if viewer.overlay == Overlay::None {
+    if viewer.overlay == Overlay::None && viewer.ab.is_none() {
         // On the GPU: the sRGB output's bytes, as they are.
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         encoder.copy_texture_to_texture(

@@ -19,6 +19,8 @@
 //! [[step]]
 //! camera = "0,1.5,3:0,0.5,0:50"   # eye:target[:fov], as `shadowlab render --camera`
 //! [[step]]
+//! ab = "pcss"                 # A/B split: the selected light with pcss on the right half ("": off)
+//! [[step]]
 //! third_person = true         # the second camera, with the eye's and the light's map frusta
 //! [[step]]
 //! truth = true                # trace the selected light's truth, frames drawn meanwhile; shows its error
@@ -38,7 +40,7 @@ pub struct Script {
 }
 
 /// One step; the fields present run in this order: select the light, technique, parameter,
-/// overlay, view, camera, third-person view, then the drag or the frames, then the truth.
+/// overlay, view, camera, A/B split, third-person view, then the drag or the frames, then the truth.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Step {
@@ -51,6 +53,8 @@ pub struct Step {
     pub camera: Option<String>,
     pub drag: Option<String>,
     pub by: Option<[f32; 3]>,
+    /// The A/B split: the selected light with this technique on the right half ("" turns it off).
+    pub ab: Option<String>,
     /// The third-person view on or off.
     pub third_person: Option<bool>,
     /// Trace the selected light's truth (the viewer keeps drawing until it is done).

@@ -77,7 +77,9 @@ impl ThirdPerson {
     }
 }
 
-fn build(
+/// A second renderer of the live scene as it is now, each light with its spec (the third-person
+/// view's, the A/B split's).
+pub(crate) fn build(
     gpu: &Gpu,
     scene: &Scene,
     specs: &[TechniqueSpec],

@@ -102,12 +102,19 @@ fn panel(ui: &mut egui::Ui, viewer: &mut Viewer, requests: &mut Requests) {
         if viewer.overlay == Overlay::TexelGrid {
             ui.add(egui::Slider::new(&mut viewer.grid, 1..=64).text("texels per line"));
         }
+        ab_row(ui, viewer);
         let mut third = viewer.third_person.is_some();
         if ui.checkbox(&mut third, "third-person view (eye and map frusta)").changed() {
             report(viewer, |v| v.set_third_person(third));
         }
         #[cfg(feature = "truth")]
         truth_panel(ui, viewer);
+
+        if let Some(curves) = viewer.aliasing_curves() {
+            egui::CollapsingHeader::new("perspective error")
+                .default_open(true)
+                .show(ui, |ui| aliasing_plot(ui, &curves));
+        }
         ui.separator();
         let light = viewer.selected_light;
         technique_panel(ui, viewer, light);
@@ -127,6 +134,70 @@ fn panel(ui: &mut egui::Ui, viewer: &mut Viewer, requests: &mut Requests) {
     });
     ui.separator();
     ui.small("WASD/QE fly · right-drag look · left-drag an object to move it");
+}
+
+/// The predicted perspective aliasing error per split (Lloyd et al. 2006 as in Stingl 2011 §2,
+/// `analyze`'s plot): m_x solid, m_z faint, log–log over eye depth, with the line m = 1.
+fn aliasing_plot(ui: &mut egui::Ui, curves: &[Vec<(f32, f32, f32)>]) {
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 120.0), Sense::hover());
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 2.0, egui::Color32::from_gray(20));
+    let points = curves.iter().flatten();
+    let finite = |v: f32| v.is_finite() && v > 0.0;
+    let (mut z0, mut z1, mut m0, mut m1) = (f32::MAX, f32::MIN, 1.0f32, 1.0f32);
+    for &(z, mx, mz) in points {
+        if finite(z) {
+            (z0, z1) = (z0.min(z), z1.max(z));
+        }
+        for m in [mx, mz].into_iter().filter(|&m| finite(m)) {
+            (m0, m1) = (m0.min(m), m1.max(m));
+        }
+    }
+    // No finite depth range (or a single depth): nothing to draw.
+    if z0.partial_cmp(&z1) != Some(std::cmp::Ordering::Less) {
+        return;
+    }
+    let (lz0, lz1, lm0, lm1) = (z0.ln(), z1.ln(), m0.ln() - 0.1, m1.ln() + 0.1);
+    let at = |z: f32, m: f32| {
+        egui::pos2(
+            rect.left() + (z.ln() - lz0) / (lz1 - lz0) * rect.width(),
+            rect.bottom() - (m.ln() - lm0) / (lm1 - lm0) * rect.height(),
+        )
+    };
+    let one = at(z0, 1.0).y;
+    painter.hline(rect.x_range(), one, egui::Stroke::new(1.0, egui::Color32::from_gray(120)));
+    for (i, curve) in curves.iter().enumerate() {
+        let c = shadowlab_core::cascades::split_colour(i);
+        let colour = egui::Color32::from_rgb((c.x * 255.0) as u8, (c.y * 255.0) as u8, (c.z * 255.0) as u8);
+        let line = |pick: fn(&(f32, f32, f32)) -> f32| -> Vec<egui::Pos2> {
+            curve.iter().filter(|p| finite(p.0) && finite(pick(p))).map(|p| at(p.0, pick(p))).collect()
+        };
+        painter.add(egui::Shape::line(line(|p| p.1), egui::Stroke::new(1.5, colour)));
+        painter.add(egui::Shape::line(line(|p| p.2), egui::Stroke::new(1.0, colour.gamma_multiply(0.5))));
+    }
+    ui.small(format!("aliasing error (pixels per texel) {m0:.2}–{m1:.2} over depth {z0:.2}–{z1:.1} (grey: 1)"));
+}
+
+/// The A/B split: the selected light with another technique on the right half.
+fn ab_row(ui: &mut egui::Ui, viewer: &mut Viewer) {
+    let Some(l) = viewer.scene().lights.get(viewer.selected_light).cloned() else { return };
+    let mut on = viewer.ab.is_some();
+    let current = viewer.ab.as_ref().map_or("pcss", |a| a.spec.info.id);
+    let mut chosen = current;
+    let toggled = ui
+        .horizontal(|ui| {
+            let t = ui.checkbox(&mut on, "A/B: right half with").changed();
+            egui::ComboBox::from_id_salt("ab technique").selected_text(chosen).show_ui(ui, |ui| {
+                for info in registry().iter().filter(|t| t.supports(&l)) {
+                    ui.selectable_value(&mut chosen, info.id, info.id);
+                }
+            });
+            t
+        })
+        .inner;
+    if toggled || (on && chosen != current) {
+        report(viewer, |v| v.set_ab(on.then_some(chosen)));
+    }
 }
 
 /// Each light's quality level and whether it shows the current state (the scheduler's view);

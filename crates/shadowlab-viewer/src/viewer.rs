@@ -90,6 +90,16 @@ impl Overlay {
     }
 }
 
+/// The A/B split: the selected light with another technique, in a renderer of its own, shown on
+/// the right half of the scene image.
+pub struct AbSplit {
+    pub light: usize,
+    pub spec: TechniqueSpec,
+    renderer: Renderer,
+    /// The scene epoch, the techniques' version and the size it was built for.
+    built: (u64, u64, (u32, u32)),
+}
+
 /// An object being dragged: it slides on the horizontal plane through the point where it was
 /// picked (its supporting plane for furniture on a floor).
 #[derive(Debug, Clone)]
@@ -127,6 +137,8 @@ pub struct Viewer {
     state: u64,
     /// The camera and the scene's edit epoch of the last frame.
     shown: u64,
+    /// The A/B split, when on.
+    pub ab: Option<AbSplit>,
     /// The third-person view, when on.
     pub third_person: Option<crate::third_person::ThirdPerson>,
     /// Counts technique changes (the third-person renderer follows them).
@@ -183,6 +195,7 @@ impl Viewer {
             shown: 0,
             path: None,
             third_person: None,
+            ab: None,
             specs_version: 0,
             status,
         })
@@ -260,6 +273,30 @@ impl Viewer {
         Ok(())
     }
 
+    /// Shows the selected light with `spec` on the right half of the image (the A/B split), or
+    /// turns the split off (`None`).
+    pub fn set_ab(&mut self, spec: Option<&str>) -> Result<(), ViewerError> {
+        let Some(text) = spec else {
+            self.ab = None;
+            return Ok(());
+        };
+        let spec = TechniqueSpec::parse(text, &[])?;
+        let light = self.selected_light;
+        let Some(l) = self.scene().lights.get(light) else {
+            return Err(ViewerError::Other(format!("no light {light}")));
+        };
+        if !spec.info.supports(l) {
+            return Err(ViewerError::Other(format!("'{}' does not shadow {} lights", spec.info.id, l.type_name())));
+        }
+        let mut specs = self.specs.clone();
+        specs[light] = spec.clone();
+        let built = (self.live().epoch(), self.specs_version, self.size());
+        let renderer =
+            crate::third_person::build(&self.renderer.gpu, self.scene(), &specs, &self.camera.view(), built.2)?;
+        self.ab = Some(AbSplit { light, spec, renderer, built });
+        Ok(())
+    }
+
     /// Turns the third-person view on (a second camera behind the eye, with the frusta drawn) or off.
     pub fn set_third_person(&mut self, on: bool) -> Result<(), ViewerError> {
         if on == self.third_person.is_some() {
@@ -302,6 +339,22 @@ impl Viewer {
             }
         }
         s
+    }
+
+    /// The predicted perspective aliasing error (`(z, m_x, m_z)` along the view direction,
+    /// per split) of the selected light's `cascaded` maps for the camera now: `shadowlab analyze`'s
+    /// curves, live (Stingl 2011 §2). `None` for other techniques.
+    pub fn aliasing_curves(&self) -> Option<Vec<Vec<(f32, f32, f32)>>> {
+        use shadowlab_core::cascades::{CascadeSettings, aliasing_curves, compute_cascades};
+        let spec = self.specs.get(self.selected_light).filter(|s| s.info.id == "cascaded")?;
+        let light = self.scene().lights.get(self.selected_light)?;
+        let settings = shadowlab::techniques::cascade_settings(&spec.params, light).ok()?;
+        let (w, h) = self.size();
+        let (view, aspect, bounds) = (self.camera.view(), w as f32 / h.max(1) as f32, self.scene().bounds());
+        let frame = compute_cascades(light, &bounds, &view, aspect, &settings);
+        let focused =
+            compute_cascades(light, &bounds, &view, aspect, &CascadeSettings { focus: true, ..settings.clone() });
+        Some(aliasing_curves(&frame, &focused, view.fov_y, (w, h), settings.map_size, 48))
     }
 
     /// Moves the camera to the scene's view `name`.
@@ -374,6 +427,19 @@ impl Viewer {
         }
         self.renderer.set_view(&view);
         let report = self.renderer.render()?;
+        let size = self.size();
+        if let Some(ab) = &mut self.ab {
+            let built = (self.renderer.shadows.live().epoch(), self.specs_version, size);
+            if built != ab.built {
+                let mut specs = self.specs.clone();
+                specs[ab.light] = ab.spec.clone();
+                ab.renderer =
+                    crate::third_person::build(&self.renderer.gpu, self.renderer.scene(), &specs, &view, built.2)?;
+                ab.built = built;
+            }
+            ab.renderer.set_view(&view);
+            ab.renderer.render()?;
+        }
         if let Some(tp) = &mut self.third_person {
             let built = (self.renderer.shadows.live().epoch(), self.specs_version);
             let size = (self.renderer.width, self.renderer.height);
@@ -455,7 +521,33 @@ impl Viewer {
                 }
             }
         }
+        if let Some(ab) = &self.ab {
+            self.compose_ab(ab, &mut rgba)?;
+        }
         Ok(rgba)
+    }
+
+    /// The right half of `rgba` from the A/B split's renderer (its visibility with the visibility
+    /// overlay, else its image), a white line between.
+    fn compose_ab(&self, ab: &AbSplit, rgba: &mut [u8]) -> Result<(), ViewerError> {
+        let (w, h) = self.size();
+        let b: Vec<[u8; 3]> = match self.overlay {
+            Overlay::Visibility => {
+                let id = ab.renderer.shadows.live().lights()[ab.light].id;
+                let v = ab.renderer.read_visibility(id)?.unwrap_or_default();
+                v.iter().map(|&x| [(x.clamp(0.0, 1.0) * 255.0).round() as u8; 3]).collect()
+            }
+            _ => ab.renderer.read_image()?.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect(),
+        };
+        let half = w / 2;
+        for y in 0..h as usize {
+            for x in half as usize..w as usize {
+                let i = y * w as usize + x;
+                let c = if x <= half as usize + 1 { [255; 3] } else { b.get(i).copied().unwrap_or([0; 3]) };
+                rgba[4 * i..4 * i + 3].copy_from_slice(&c);
+            }
+        }
+        Ok(())
     }
 
     fn no_maps(&self, what: &str) -> ViewerError {

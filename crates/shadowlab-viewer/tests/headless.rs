@@ -368,3 +368,62 @@ fn the_copied_command_reproduces_the_camera() {
     assert!((view.fov_y - mine.fov_y).abs() < 1e-3);
     assert!(command.contains("--technique 'pcf'") && command.contains("--size 64x48"), "{command}");
 }
+
+/// The A/B split shows the selected light with another technique on the right half: the left half
+/// is the eye's image, the right half that of a renderer with the other technique, and the same
+/// technique on both sides shows one picture.
+#[test]
+fn the_ab_split_shows_two_techniques_side_by_side() {
+    let (w, h) = (128, 96);
+    let mut viewer = Headless::new(gpu(), setup("hard", w, h)).unwrap();
+    let lamp = viewer.viewer.find_light("ceiling lamp").unwrap();
+    viewer.viewer.selected_light = lamp;
+    viewer.frame(Vec::new()).unwrap();
+    let a = scene_area(&viewer.screenshot().unwrap(), w, h);
+    let column = |img: &[u8], x: u32| (0..h).map(|y| img[3 * (y * w + x) as usize..][..3].to_vec()).collect::<Vec<_>>();
+    viewer.viewer.set_ab(Some("hard")).unwrap();
+    viewer.frame(Vec::new()).unwrap();
+    let same = scene_area(&viewer.screenshot().unwrap(), w, h);
+    for x in (0..w).filter(|&x| x < w / 2 || x > w / 2 + 1) {
+        assert_eq!(column(&same, x), column(&a, x), "column {x}: the same technique on both sides");
+    }
+    assert!(column(&same, w / 2).iter().all(|p| p == &vec![255u8; 3]), "the divider");
+    viewer.viewer.set_ab(Some("pcss")).unwrap();
+    viewer.frame(Vec::new()).unwrap();
+    let split = scene_area(&viewer.screenshot().unwrap(), w, h);
+    let left_same = (0..w / 2).all(|x| column(&split, x) == column(&a, x));
+    let right_changed = (w / 2 + 2..w).filter(|&x| column(&split, x) != column(&a, x)).count();
+    assert!(left_same, "the left half stays the eye's technique");
+    assert!(right_changed > 10, "pcss's softer shadows on the right ({right_changed} columns differ)");
+    assert!(viewer.viewer.set_ab(Some("cascaded")).is_err(), "not for a point light");
+    viewer.viewer.set_ab(None).unwrap();
+    viewer.frame(Vec::new()).unwrap();
+    assert_eq!(scene_area(&viewer.screenshot().unwrap(), w, h), a, "off again");
+}
+
+/// The live perspective-error graph of `cascaded` (analyze's curves for the camera now): finite,
+/// one curve per split, and more splits lower the worst undersampling (PSSM's point).
+#[test]
+fn the_perspective_error_follows_the_cascades() {
+    let mut viewer = Headless::new(gpu(), Setup { scene: "terrain".into(), ..setup("hard", 96, 64) }).unwrap();
+    let sun = viewer.viewer.scene().lights.iter().position(|l| l.type_name() == "directional").expect("a sun");
+    viewer.viewer.selected_light = sun;
+    assert!(viewer.viewer.aliasing_curves().is_none(), "none for hard");
+    let worst = |v: &mut Headless, splits: u32| {
+        v.viewer.set_technique(sun, &format!("cascaded:splits={splits}")).unwrap();
+        let curves = v.viewer.aliasing_curves().expect("curves for cascaded");
+        assert_eq!(curves.len(), splits as usize);
+        assert!(curves.iter().flatten().all(|&(z, mx, mz)| z > 0.0
+            && mx > 0.0
+            && mz > 0.0
+            && mx.is_finite()
+            && mz.is_finite()));
+        // m is the perspective aliasing error, screen pixels per texel (Lloyd et al.): the worst is
+        // the largest.
+        curves.iter().flatten().map(|p| p.1.max(p.2)).fold(0.0, f32::max)
+    };
+    let (one, four) = (worst(&mut viewer, 1), worst(&mut viewer, 4));
+    println!("largest aliasing error: 1 split {one:.2}, 4 splits {four:.2}");
+    assert!(four < one, "four splits lower the worst aliasing: {four} vs {one}");
+    viewer.frame(Vec::new()).unwrap();
+}

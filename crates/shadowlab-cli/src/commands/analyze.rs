@@ -17,7 +17,7 @@ use anyhow::{Context, Result};
 use plotters::prelude::*;
 use serde_json::json;
 use shadowlab::techniques::cascade_settings;
-use shadowlab_core::cascades::{compute_cascades, perspective_error};
+use shadowlab_core::cascades::{aliasing_curves, compute_cascades};
 use shadowlab_reference::images::write_rgb_png;
 
 use crate::args::{GlobalArgs, SceneArgs, TechniqueArgs, open_gpu, renderer};
@@ -75,21 +75,12 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         aspect,
         &shadowlab_core::cascades::CascadeSettings { focus: true, ..settings.clone() },
     );
-    let theta = 0.5 * setup.view.fov_y;
-    let size = settings.map_size as f32;
+    let curves = aliasing_curves(&frame, &focused, setup.view.fov_y, (w, h), settings.map_size, 64);
     let mut csv = String::from("split,z,m_x,m_z\n");
-    let mut curves: Vec<Vec<(f32, f32, f32)>> = Vec::new();
     let mut splits_json = Vec::new();
-    for (i, (c, f)) in frame.cascades.iter().zip(&focused.cascades).enumerate() {
-        let scale = c.view.texel_scale / f.view.texel_scale.max(1e-12);
-        let (rx, ry) = (w as f32 / size * scale, h as f32 / size * scale);
-        let steps = 64;
-        let mut curve = Vec::with_capacity(steps + 1);
-        for k in 0..=steps {
-            let z = c.near * (c.far / c.near).powf(k as f32 / steps as f32);
-            let (mx, mz) = perspective_error(z, c.near, c.far, theta, c.warp_n);
-            curve.push((z, rx * mx, ry * mz));
-            csv.push_str(&format!("{i},{z},{},{}\n", rx * mx, ry * mz));
+    for (i, (c, curve)) in frame.cascades.iter().zip(&curves).enumerate() {
+        for (z, mx, mz) in curve {
+            csv.push_str(&format!("{i},{z},{mx},{mz}\n"));
         }
         let max_x = curve.iter().map(|v| v.1).fold(0.0f32, f32::max);
         let max_z = curve.iter().map(|v| v.2).fold(0.0f32, f32::max);
@@ -98,7 +89,6 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             "warp_n": if c.warp_n.is_finite() { json!(c.warp_n) } else { json!(null) },
             "texel_m": c.view.texel_scale, "max_m_x": max_x, "max_m_z": max_z, "empty": c.empty,
         }));
-        curves.push(curve);
     }
     std::fs::write(args.out.join("aliasing.csv"), csv)?;
     std::fs::write(args.out.join("aliasing.svg"), aliasing_svg(&curves, &spec.spec)?)?;

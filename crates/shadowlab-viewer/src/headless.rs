@@ -112,6 +112,9 @@ impl Headless {
             if let Some(on) = step.third_person {
                 v.set_third_person(on).map_err(at)?;
             }
+            if let Some(k) = step.light_view {
+                v.look_from_light_view(k).map_err(at)?;
+            }
             let frames = step.frames.unwrap_or(1);
             if let (Some(name), Some(by)) = (&step.drag, step.by) {
                 v.drag_by(name, Vec3::from_array(by), frames).map_err(at)?;

@@ -22,6 +22,7 @@
 //! ab = "pcss"                 # A/B split: the selected light with pcss on the right half ("": off)
 //! [[step]]
 //! third_person = true         # the second camera, with the eye's and the light's map frusta
+//! light_view = 2              # ... looking through the selected light's map view 2 (face, split)
 //! [[step]]
 //! truth = true                # trace the selected light's truth, frames drawn meanwhile; shows its error
 //! [[step]]
@@ -40,7 +41,7 @@ pub struct Script {
 }
 
 /// One step; the fields present run in this order: select the light, technique, parameter,
-/// overlay, view, camera, A/B split, third-person view, then the drag or the frames, then the truth.
+/// overlay, view, camera, A/B split, third-person view, light view, then the drag or the frames, then the truth.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Step {
@@ -57,6 +58,8 @@ pub struct Step {
     pub ab: Option<String>,
     /// The third-person view on or off.
     pub third_person: Option<bool>,
+    /// Look through map view k of the selected light (third-person view).
+    pub light_view: Option<usize>,
     /// Trace the selected light's truth (the viewer keeps drawing until it is done).
     pub truth: Option<bool>,
     /// Frames to render (with `drag`: the frames the drag takes). Default 1.

@@ -13,8 +13,9 @@ use crate::viewer::ViewerError;
 /// A world-space line segment and its colour (RGB).
 pub type Segment = ([Vec3; 2], [u8; 3]);
 
-/// The eye's frustum colour, and one per map view (the maps overlay's).
+/// The eye's frustum colour, the focus body's, and one per map view (the maps overlay's).
 pub const EYE_COLOUR: [u8; 3] = [255, 255, 255];
+pub const FOCUS_COLOUR: [u8; 3] = [255, 236, 0];
 pub const VIEW_COLOURS: [[u8; 3]; 6] =
     [[230, 60, 60], [60, 200, 80], [70, 110, 240], [240, 200, 50], [200, 80, 220], [60, 210, 220]];
 
@@ -23,6 +24,8 @@ pub const VIEW_COLOURS: [[u8; 3]; 6] =
 pub struct ThirdPerson {
     pub renderer: Renderer,
     pub camera: FlyCamera,
+    /// A light view being looked through (`light_view_camera`), until the camera is moved.
+    pub fixed: Option<View>,
     /// The scene epoch and the techniques' version it was built for.
     built: (u64, u64),
 }
@@ -54,7 +57,12 @@ impl ThirdPerson {
         };
         let camera = FlyCamera::from_view(&view, diagonal);
         let renderer = build(gpu, scene, specs, &view, size)?;
-        Ok(Self { renderer, camera, built })
+        Ok(Self { renderer, camera, fixed: None, built })
+    }
+
+    /// The view rendered: the light view looked through, or the free camera's.
+    pub fn view(&self) -> View {
+        self.fixed.clone().unwrap_or_else(|| self.camera.view())
     }
 
     /// Renders from the third-person camera, rebuilding first when `built` moved on.
@@ -66,7 +74,7 @@ impl ThirdPerson {
         size: (u32, u32),
         built: (u64, u64),
     ) -> Result<(), ViewerError> {
-        let view = self.camera.view();
+        let view = self.view();
         if built != self.built || (self.renderer.width, self.renderer.height) != size {
             self.renderer = build(gpu, scene, specs, &view, size)?;
             self.built = built;
@@ -74,6 +82,45 @@ impl ThirdPerson {
         self.renderer.set_view(&view);
         self.renderer.render()?;
         Ok(())
+    }
+}
+
+/// A camera looking as map view `view` does (Stingl 2011 §5's light views): from its eye along its
+/// axis with its field of view and its up; an orthographic view (a directional light's) is
+/// approached by a camera far back along its axis, aimed at its window's centre, with the field of
+/// view that spans the window's height.
+pub fn light_view_camera(view: &ShadowView, scene_diagonal: f32) -> View {
+    let inverse = view.view_projection.inverse();
+    // The map's own up (its view matrix's y axis in the world), so that its window's height is the
+    // camera's.
+    let up = view.view.inverse().transform_vector3(Vec3::Y).normalize_or(Vec3::Y);
+    // The window's centre line and half height, on the near plane (reversed Z: depth 1).
+    let at = |x: f32, y: f32| inverse.project_point3(Vec3::new(x, y, 1.0));
+    if view.orthographic {
+        let half = 0.5 * at(0.0, 1.0).distance(at(0.0, -1.0));
+        // Far enough that the perspective shrinks the window's depth by well under a percent.
+        let back = 200.0 * scene_diagonal.max(1e-3);
+        let centre = at(0.0, 0.0);
+        View {
+            name: "light view".into(),
+            position: centre - view.axis * back,
+            target: centre,
+            up,
+            fov_y: 2.0 * (half / back).atan(),
+            near: back * 0.5,
+            far: back + 2.0 * (view.far - view.near).abs().max(scene_diagonal),
+        }
+    } else {
+        let half = 1.0 / view.projection.y_axis.y.abs().max(1e-6);
+        View {
+            name: "light view".into(),
+            position: view.eye,
+            target: view.eye + view.axis,
+            up,
+            fov_y: 2.0 * half.atan(),
+            near: view.near.max(1e-4),
+            far: view.far.max(view.near * 2.0),
+        }
     }
 }
 
@@ -109,6 +156,19 @@ pub fn eye_frustum(eye: &View, aspect: f32, reach: f32) -> Vec<Segment> {
             .map(|(x, y): (f32, f32)| eye.position + f * d + r * (x * d * t * aspect) + u * (y * d * t))
     };
     box_segments(ring(eye.near), ring(eye.far.min(reach).max(eye.near)), EYE_COLOUR)
+}
+
+/// The edges of H = V ∩ S, the part of the scene's box the eye sees (Stingl 2011 §3.1: the body the
+/// focused and cascaded maps are fitted around, before its extrusion towards the light).
+pub fn focus_body(eye: &View, aspect: f32, scene: &shadowlab_core::Aabb) -> Vec<Segment> {
+    // Reversed Z swaps which corners are near and far; the body is the same.
+    let body = shadowlab_core::convex::ConvexBody::from_frustum(&(eye.projection(aspect) * eye.view_matrix()));
+    body.clip_to_aabb(scene)
+        .faces
+        .iter()
+        .flat_map(|f| (0..f.len()).map(move |k| ([f[k], f[(k + 1) % f.len()]], FOCUS_COLOUR)))
+        .filter(|([a, b], _)| a.is_finite() && b.is_finite() && a.distance(*b) > 0.0)
+        .collect()
 }
 
 /// A map view's frustum: its near and far rectangles and the edges between them.
@@ -170,6 +230,40 @@ mod tests {
         assert!(cut.iter().all(|c| c.is_finite()));
     }
 
+    /// A light-view camera sees what its map view sees: the top and bottom of the map window's
+    /// centre line project to the top and bottom of the image's centre column, for a cube face and
+    /// for a directional light's window.
+    #[test]
+    fn light_view_cameras_see_their_map_window() {
+        let face = ShadowView::perspective(Vec3::new(0.0, 3.0, 0.0), Vec3::X, 1.2, 0.1, 8.0, 256);
+        let sun = shadowlab_core::lightspace::light_frusta(
+            &shadowlab_core::Light::new(
+                "sun",
+                shadowlab_core::LightKind::Directional { direction: Vec3::new(0.3, -1.0, 0.2), angular_radius: 0.0 },
+                Vec3::ONE,
+                1.0,
+            ),
+            &shadowlab_core::Aabb::new(Vec3::splat(-3.0), Vec3::splat(3.0)),
+            256,
+        )
+        .views[0];
+        for v in [face, sun] {
+            let cam = light_view_camera(&v, 10.0);
+            let m = cam.view_projection(100, 100);
+            let inverse = v.view_projection.inverse();
+            for (y, expected) in [(1.0, 0.0), (-1.0, 100.0)] {
+                // A point of the window halfway between near and far.
+                let p = inverse.project_point3(Vec3::new(0.0, y, 0.5));
+                let q = project_segment(&m, [p, p], 100, 100).unwrap()[0];
+                assert!(
+                    (q.x - 50.0).abs() < 0.5 && (q.y - expected).abs() < 0.5,
+                    "{q} (orthographic {})",
+                    v.orthographic
+                );
+            }
+        }
+    }
+
     #[test]
     fn a_map_frustum_has_twelve_edges_through_its_eye() {
         let v = ShadowView::perspective(Vec3::new(0.0, 3.0, 0.0), Vec3::NEG_Y, 1.0, 0.5, 4.0, 256);
@@ -184,5 +278,15 @@ mod tests {
         let e = eye_frustum(&eye, 1.5, 10.0);
         assert_eq!(e.len(), 12);
         assert!(e.iter().all(|([a, b], _)| a.length() <= 20.0 && b.length() <= 20.0), "cut at the reach");
+        // The focus body lies in the scene's box and in the eye's frustum.
+        let scene = shadowlab_core::Aabb::new(Vec3::new(-2.0, -1.0, -6.0), Vec3::new(2.0, 1.0, -1.0));
+        let h = focus_body(&eye, 1.5, &scene);
+        assert!(h.len() >= 12, "{} edges", h.len());
+        for ([a, b], _) in &h {
+            for p in [a, b] {
+                assert!(p.cmpge(scene.min - 1e-4).all() && p.cmple(scene.max + 1e-4).all(), "{p} in the box");
+                assert!(p.z <= -0.1 + 1e-4 && p.x.abs() <= -p.z * 1.5 * (0.5 * eye.fov_y).tan() + 1e-3, "{p} seen");
+            }
+        }
     }
 }

@@ -107,6 +107,21 @@ fn panel(ui: &mut egui::Ui, viewer: &mut Viewer, requests: &mut Requests) {
         if ui.checkbox(&mut third, "third-person view (eye and map frusta)").changed() {
             report(viewer, |v| v.set_third_person(third));
         }
+        let views = viewer.light_id(viewer.selected_light).map_or(0, |id| viewer.renderer.light_views(id).len());
+        if views > 0 {
+            let mut look = None;
+            ui.horizontal_wrapped(|ui| {
+                ui.label("light views:");
+                for k in 0..views {
+                    if ui.small_button(format!("{k}")).on_hover_text("look through this map view").clicked() {
+                        look = Some(k);
+                    }
+                }
+            });
+            if let Some(k) = look {
+                report(viewer, |v| v.look_from_light_view(k));
+            }
+        }
         #[cfg(feature = "truth")]
         truth_panel(ui, viewer);
 
@@ -453,7 +468,7 @@ fn scene_area(
     let image = egui::Image::new(egui::load::SizedTexture::new(texture, size)).sense(Sense::click_and_drag());
     let response = ui.add(image);
     let origin = response.rect.min;
-    let third = viewer.third_person.as_ref().map(|tp| tp.camera.view().view_projection(w, h));
+    let third = viewer.third_person.as_ref().map(|tp| tp.view().view_projection(w, h));
     if let Some(view_proj) = third {
         let painter = ui.painter_at(response.rect);
         for (segment, [r, g, b]) in viewer.frusta() {

@@ -319,20 +319,48 @@ impl Viewer {
         Ok(())
     }
 
-    /// The camera the keys and the mouse move: the third person's when that view is on.
+    /// The camera the keys and the mouse move: the third person's when that view is on (leaving a
+    /// light view it looked through, from where it was).
     pub fn active_camera(&mut self) -> &mut FlyCamera {
+        let diagonal = self.renderer.scene().bounds().diagonal();
         match &mut self.third_person {
-            Some(tp) => &mut tp.camera,
+            Some(tp) => {
+                if let Some(v) = tp.fixed.take() {
+                    tp.camera = FlyCamera::from_view(&v, diagonal);
+                }
+                &mut tp.camera
+            }
             None => &mut self.camera,
         }
     }
 
-    /// The lines of the third-person view: the eye's frustum (to the scene's size) and the
-    /// selected light's map views of the frame shown.
+    /// Looks through map view `k` of the selected light (a cube face, a cascade split) in the
+    /// third-person view (turned on if off), with the eye's frustum drawn in: Stingl 2011 §5's
+    /// light views.
+    pub fn look_from_light_view(&mut self, k: usize) -> Result<(), ViewerError> {
+        let views = self.renderer.light_views(self.light_id(self.selected_light)?);
+        let Some(view) = views.get(k) else {
+            return Err(ViewerError::Other(format!(
+                "the selected light's technique has {} map views here; no view {k}",
+                views.len()
+            )));
+        };
+        let camera = crate::third_person::light_view_camera(view, self.scene().bounds().diagonal());
+        self.set_third_person(true)?;
+        if let Some(tp) = &mut self.third_person {
+            tp.fixed = Some(camera);
+        }
+        Ok(())
+    }
+
+    /// The lines of the third-person view: the eye's frustum (to the scene's size), the focus body
+    /// H = V ∩ S, and the selected light's map views of the frame shown.
     pub fn frusta(&self) -> Vec<crate::third_person::Segment> {
-        use crate::third_person::{VIEW_COLOURS, eye_frustum, view_frustum};
+        use crate::third_person::{VIEW_COLOURS, eye_frustum, focus_body, view_frustum};
         let (w, h) = self.size();
-        let mut s = eye_frustum(&self.camera.view(), w as f32 / h.max(1) as f32, self.scene().bounds().diagonal());
+        let (eye, aspect, bounds) = (self.camera.view(), w as f32 / h.max(1) as f32, self.scene().bounds());
+        let mut s = eye_frustum(&eye, aspect, bounds.diagonal());
+        s.extend(focus_body(&eye, aspect, &bounds));
         if let Ok(id) = self.light_id(self.selected_light) {
             for (k, v) in self.renderer.light_views(id).iter().enumerate() {
                 s.extend(view_frustum(v, VIEW_COLOURS[k % VIEW_COLOURS.len()]));

@@ -335,15 +335,31 @@ fn the_third_person_view_draws_the_frusta() {
     let differing = eye_image.chunks_exact(3).zip(third.chunks_exact(3)).filter(|(a, b)| a != b).count();
     assert!(differing > (w * h / 2) as usize, "another camera's image ({differing} pixels differ)");
     let frusta = viewer.viewer.frusta();
-    // The eye's 12 edges and 12 per cube face of the ceiling lamp (a point light inside the room).
-    assert_eq!(frusta.len(), 12 + 6 * 12, "{} segments", frusta.len());
+    // The eye's 12 edges, the focus body's (at least a hexahedron's 24 face edges), and 12 per cube
+    // face of the ceiling lamp (a point light inside the room).
+    let count = |c: [u8; 3]| frusta.iter().filter(|s| s.1 == c).count();
+    assert_eq!(count(shadowlab_viewer::third_person::EYE_COLOUR), 12);
+    assert!(count(shadowlab_viewer::third_person::FOCUS_COLOUR) >= 24);
+    let faces = frusta.len() - 12 - count(shadowlab_viewer::third_person::FOCUS_COLOUR);
+    assert_eq!(faces, 6 * 12, "{faces} map-view segments");
     let colour_count =
         |c: [u8; 3]| third.chunks_exact(3).filter(|p| p.iter().zip(c).all(|(a, b)| a.abs_diff(b) < 24)).count();
     assert!(colour_count([255, 255, 255]) > 20, "the eye's frustum is drawn");
+    assert!(colour_count(shadowlab_viewer::third_person::FOCUS_COLOUR) > 20, "the focus body is drawn");
     let drawn = shadowlab_viewer::third_person::VIEW_COLOURS.iter().filter(|&&c| colour_count(c) > 5).count();
     assert!(drawn >= 2, "the lamp's faces are drawn ({drawn} colours seen)");
+    // Looking through a cube face of the lamp: from the lamp, along the face's axis.
+    let face = viewer.viewer.renderer.light_views(LightId(viewer.viewer.selected_light as u32))[3];
+    viewer.viewer.look_from_light_view(3).unwrap();
+    assert!(viewer.viewer.look_from_light_view(99).is_err(), "no view 99");
+    viewer.frame(Vec::new()).unwrap();
+    let looked = viewer.viewer.third_person.as_ref().unwrap().view();
+    assert!(looked.position.abs_diff_eq(face.eye, 1e-5), "{} vs {}", looked.position, face.eye);
+    let through = scene_area(&viewer.screenshot().unwrap(), w, h);
+    assert_ne!(through, third, "the light's view is another picture");
     let eye = viewer.viewer.camera.clone();
     viewer.viewer.active_camera().travel(Vec3::new(0.0, 0.0, 1.0), 0.5);
+    assert!(viewer.viewer.third_person.as_ref().unwrap().fixed.is_none(), "moving leaves the light view");
     assert_eq!(viewer.viewer.camera, eye, "the keys move the third person, not the eye");
     viewer.viewer.set_third_person(false).unwrap();
     viewer.frame(Vec::new()).unwrap();

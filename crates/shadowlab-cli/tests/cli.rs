@@ -459,3 +459,24 @@ fn precompute_writes_light_meshes_that_the_engine_takes() {
     fails_with(&["precompute", "--scene", "columns", "--out", dir.to_str().unwrap()], "is a directory");
     fails_with(&["precompute", "--scene", "columns", "--lights", "lamp 9", "--out", f], "no light 'lamp 9'");
 }
+
+/// `shadowlab view` opens the viewer's window (under Xvfb here) and closes after `--frames`; a bad
+/// scene is an error before any window opens.
+#[test]
+fn view_opens_the_viewer_window() {
+    fails_with(&["view", "--scene", "no-such-scene", "--frames", "1"], "no-such-scene");
+    if Command::new("xvfb-run").arg("--help").output().is_err() {
+        // CI installs xvfb (.ci/run).
+        assert!(std::env::var_os("CI").is_none(), "xvfb-run is missing on CI");
+        eprintln!("skipped the window: xvfb-run is not installed");
+        return;
+    }
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 640x480x24"])
+        .arg(env!("CARGO_BIN_EXE_shadowlab"))
+        .args(["view", "--scene", "penumbra", "--size", "96x64", "--frames", "3"])
+        .output()
+        .expect("xvfb-run runs");
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("3 frames"));
+}

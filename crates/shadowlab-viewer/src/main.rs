@@ -54,8 +54,14 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-fn main() -> Result<()> {
-    let args = Args::parse();
+fn main() {
+    if let Err(e) = run_viewer(Args::parse()) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run_viewer(args: Args) -> Result<()> {
     let setup = Setup {
         scene: args.scene.clone(),
         view: args.view.clone(),

@@ -16,6 +16,7 @@ pub type Segment = ([Vec3; 2], [u8; 3]);
 /// The eye's frustum colour, the focus body's, and one per map view (the maps overlay's).
 pub const EYE_COLOUR: [u8; 3] = [255, 255, 255];
 pub const FOCUS_COLOUR: [u8; 3] = [255, 236, 0];
+pub const LIGHT_COLOUR: [u8; 3] = [255, 128, 0];
 pub const VIEW_COLOURS: [[u8; 3]; 6] =
     [[230, 60, 60], [60, 200, 80], [70, 110, 240], [240, 200, 50], [200, 80, 220], [60, 210, 220]];
 
@@ -171,6 +172,45 @@ pub fn focus_body(eye: &View, aspect: f32, scene: &shadowlab_core::Aabb) -> Vec<
         .collect()
 }
 
+/// For a directional light, the focus body B's extrusion (Stingl 2011 §3.1.1): from each vertex of
+/// H towards the light to where it leaves the scene's box.
+pub fn focus_extrusion(h: &[Segment], scene: &shadowlab_core::Aabb, light: &shadowlab_core::Light) -> Vec<Segment> {
+    let Some(direction) = light.direction().filter(|_| light.position().is_none()) else { return Vec::new() };
+    let toward = -direction.normalize_or(Vec3::NEG_Y);
+    let mut points: Vec<Vec3> = h.iter().flat_map(|(ends, _)| *ends).collect();
+    points.dedup_by(|a, b| a.distance(*b) < 1e-5);
+    points
+        .into_iter()
+        .map(|p| ([p, shadowlab_core::convex::exit_point(scene, p, toward)], FOCUS_COLOUR))
+        .filter(|([a, b], _)| a.distance(*b) > 1e-5)
+        .collect()
+}
+
+/// Where the light is and where it shines: a cross at a positioned light and a line along a spot's
+/// or a rect light's axis; for a directional light, an arrow through the scene's centre along the
+/// direction the light travels.
+pub fn light_marker(light: &shadowlab_core::Light, scene: &shadowlab_core::Aabb) -> Vec<Segment> {
+    let d = 0.05 * scene.diagonal().max(1e-3);
+    let c = LIGHT_COLOUR;
+    match (light.position(), light.direction()) {
+        (Some(p), direction) => {
+            let mut s: Vec<Segment> =
+                [Vec3::X, Vec3::Y, Vec3::Z].iter().map(|&a| ([p - a * d, p + a * d], c)).collect();
+            if let Some(dir) = direction {
+                s.push(([p, p + dir.normalize_or(Vec3::NEG_Y) * 4.0 * d], c));
+            }
+            s
+        }
+        (None, Some(dir)) => {
+            let dir = dir.normalize_or(Vec3::NEG_Y);
+            let (tip, tail) = (scene.center(), scene.center() - dir * 6.0 * d);
+            let side = dir.cross(if dir.cross(Vec3::Y).length() < 1e-3 { Vec3::X } else { Vec3::Y }).normalize();
+            vec![([tail, tip], c), ([tip, tip - dir * d + side * d], c), ([tip, tip - dir * d - side * d], c)]
+        }
+        (None, None) => Vec::new(),
+    }
+}
+
 /// A map view's frustum: its near and far rectangles and the edges between them.
 pub fn view_frustum(view: &ShadowView, colour: [u8; 3]) -> Vec<Segment> {
     let inverse = view.view_projection.inverse();
@@ -262,6 +302,40 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// B's extrusion runs from H's vertices towards a directional light to the scene's box; other
+    /// lights get none. The sun's marker is an arrow along the direction the light travels.
+    #[test]
+    fn the_focus_body_extrudes_towards_the_sun() {
+        let scene = shadowlab_core::Aabb::new(Vec3::new(-5.0, 0.0, -5.0), Vec3::new(5.0, 4.0, 5.0));
+        let eye = View::new("e", Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 1.0, 0.0), 0.1, 100.0);
+        let h = focus_body(&eye, 1.5, &scene);
+        let dir = Vec3::new(0.4, -1.0, 0.1).normalize();
+        let sun = shadowlab_core::Light::new(
+            "sun",
+            shadowlab_core::LightKind::Directional { direction: dir, angular_radius: 0.0 },
+            Vec3::ONE,
+            1.0,
+        );
+        let e = focus_extrusion(&h, &scene, &sun);
+        assert!(!e.is_empty());
+        for ([a, b], _) in &e {
+            assert!((*b - *a).normalize().abs_diff_eq(-dir, 1e-3), "towards the light");
+            let on_face = (0..3).any(|i| (b[i] - scene.min[i]).abs() < 1e-3 || (b[i] - scene.max[i]).abs() < 1e-3);
+            assert!(on_face, "{b} ends on the box");
+        }
+        let lamp = shadowlab_core::Light::new(
+            "lamp",
+            shadowlab_core::LightKind::Point { position: Vec3::new(0.0, 3.0, 0.0), radius: 0.1 },
+            Vec3::ONE,
+            1.0,
+        );
+        assert!(focus_extrusion(&h, &scene, &lamp).is_empty());
+        let arrow = light_marker(&sun, &scene);
+        assert_eq!(arrow.len(), 3);
+        assert!((arrow[0].0[1] - arrow[0].0[0]).normalize().abs_diff_eq(dir, 1e-4), "along the light's travel");
+        assert_eq!(light_marker(&lamp, &scene).len(), 3, "a cross at the lamp");
     }
 
     #[test]

@@ -13,7 +13,8 @@ use crate::camera::FlyCamera;
 /// What can go wrong when the viewer opens or changes something.
 #[derive(Debug, thiserror::Error)]
 pub enum ViewerError {
-    #[error("scene '{spec}': {message}")]
+    /// The loader's message names the scene or file itself.
+    #[error("{message}")]
     Scene { spec: String, message: String },
     #[error("the scene has no view named '{name}' (views: {known})")]
     UnknownView { name: String, known: String },
@@ -151,8 +152,28 @@ pub struct Viewer {
 
 impl Viewer {
     pub fn new(gpu: &Gpu, setup: Setup) -> Result<Self, ViewerError> {
+        let loaded = Self::load(&setup)?;
+        Self::with_scene(gpu, setup, loaded)
+    }
+
+    /// Loads and checks what `setup` names (no GPU): a windowed run does this before it opens
+    /// its window, so that a mistyped scene is an error, not an empty window.
+    pub fn load(setup: &Setup) -> Result<shadowlab_core::load::Loaded, ViewerError> {
         let loaded = shadowlab_core::load::load_scene(&setup.scene)
             .map_err(|e| ViewerError::Scene { spec: setup.scene.clone(), message: e.to_string() })?;
+        if let Some(name) = &setup.view
+            && loaded.scene.view(name).is_none()
+        {
+            let known = loaded.scene.views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", ");
+            return Err(ViewerError::UnknownView { name: name.clone(), known });
+        }
+        check_size(setup.width, setup.height)?;
+        TechniqueSpec::parse(&setup.technique, &[])?;
+        Ok(loaded)
+    }
+
+    /// The viewer of a scene [`Viewer::load`] loaded for `setup`.
+    pub fn with_scene(gpu: &Gpu, setup: Setup, loaded: shadowlab_core::load::Loaded) -> Result<Self, ViewerError> {
         let scene = loaded.scene;
         let view = match &setup.view {
             Some(name) => {
@@ -354,13 +375,19 @@ impl Viewer {
     }
 
     /// The lines of the third-person view: the eye's frustum (to the scene's size), the focus body
-    /// H = V ∩ S, and the selected light's map views of the frame shown.
+    /// H = V ∩ S (extruded towards a directional light: B), where the selected light is and where it
+    /// shines, and its map views of the frame shown.
     pub fn frusta(&self) -> Vec<crate::third_person::Segment> {
-        use crate::third_person::{VIEW_COLOURS, eye_frustum, focus_body, view_frustum};
+        use crate::third_person::{VIEW_COLOURS, eye_frustum, focus_body, focus_extrusion, light_marker, view_frustum};
         let (w, h) = self.size();
         let (eye, aspect, bounds) = (self.camera.view(), w as f32 / h.max(1) as f32, self.scene().bounds());
         let mut s = eye_frustum(&eye, aspect, bounds.diagonal());
-        s.extend(focus_body(&eye, aspect, &bounds));
+        let body = focus_body(&eye, aspect, &bounds);
+        if let Some(light) = self.scene().lights.get(self.selected_light) {
+            s.extend(focus_extrusion(&body, &bounds, light));
+            s.extend(light_marker(light, &bounds));
+        }
+        s.extend(body);
         if let Ok(id) = self.light_id(self.selected_light) {
             for (k, v) in self.renderer.light_views(id).iter().enumerate() {
                 s.extend(view_frustum(v, VIEW_COLOURS[k % VIEW_COLOURS.len()]));

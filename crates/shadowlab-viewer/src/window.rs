@@ -25,8 +25,10 @@ pub struct WindowOptions {
 
 /// Opens the window and runs until it closes; the frames drawn.
 pub fn run(options: WindowOptions) -> Result<u64, ViewerError> {
+    // The scene first: a mistake in it is reported before any window opens.
+    let loaded = Viewer::load(&options.setup)?;
     let event_loop = EventLoop::new().map_err(|e| ViewerError::Other(format!("no window system: {e}")))?;
-    let mut app = App { options, running: None, error: None, frames: 0 };
+    let mut app = App { options, loaded: Some(loaded), running: None, error: None, frames: 0 };
     event_loop.run_app(&mut app).map_err(|e| ViewerError::Other(format!("event loop: {e}")))?;
     match app.error {
         Some(e) => Err(e),
@@ -36,6 +38,8 @@ pub fn run(options: WindowOptions) -> Result<u64, ViewerError> {
 
 struct App {
     options: WindowOptions,
+    /// The scene, until the window's viewer takes it.
+    loaded: Option<shadowlab_core::load::Loaded>,
     running: Option<Running>,
     error: Option<ViewerError>,
     frames: u64,
@@ -65,7 +69,8 @@ impl ApplicationHandler for App {
         if self.running.is_some() {
             return;
         }
-        match open(event_loop, &self.options.setup) {
+        let Some(loaded) = self.loaded.take() else { return };
+        match open(event_loop, &self.options.setup, loaded) {
             Ok(r) => {
                 r.window.request_redraw();
                 self.running = Some(r);
@@ -108,7 +113,11 @@ impl ApplicationHandler for App {
     }
 }
 
-fn open(event_loop: &ActiveEventLoop, setup: &Setup) -> Result<Running, ViewerError> {
+fn open(
+    event_loop: &ActiveEventLoop,
+    setup: &Setup,
+    loaded: shadowlab_core::load::Loaded,
+) -> Result<Running, ViewerError> {
     let attributes = Window::default_attributes()
         .with_title(format!("shadowlab — {}", setup.scene))
         .with_inner_size(winit::dpi::PhysicalSize::new(setup.width + PANEL_WIDTH, setup.height));
@@ -150,7 +159,7 @@ fn open(event_loop: &ActiveEventLoop, setup: &Setup) -> Result<Running, ViewerEr
         view_formats: vec![],
     };
     surface.configure(&gpu.device, &config);
-    let viewer = Viewer::new(&gpu, setup.clone())?;
+    let viewer = Viewer::with_scene(&gpu, setup.clone(), loaded)?;
     let (w, h) = viewer.size();
     let painter = Painter::new(&gpu, format, w, h);
     let ui = Ui::new(painter.scene_texture, painter.minimap_texture);

@@ -340,7 +340,12 @@ fn the_third_person_view_draws_the_frusta() {
     let count = |c: [u8; 3]| frusta.iter().filter(|s| s.1 == c).count();
     assert_eq!(count(shadowlab_viewer::third_person::EYE_COLOUR), 12);
     assert!(count(shadowlab_viewer::third_person::FOCUS_COLOUR) >= 24);
-    let faces = frusta.len() - 12 - count(shadowlab_viewer::third_person::FOCUS_COLOUR);
+    // A point light: a cross where it is, no extrusion (that is for directional lights).
+    assert_eq!(count(shadowlab_viewer::third_person::LIGHT_COLOUR), 3);
+    let faces = frusta.len()
+        - 12
+        - count(shadowlab_viewer::third_person::FOCUS_COLOUR)
+        - count(shadowlab_viewer::third_person::LIGHT_COLOUR);
     assert_eq!(faces, 6 * 12, "{faces} map-view segments");
     let colour_count =
         |c: [u8; 3]| third.chunks_exact(3).filter(|p| p.iter().zip(c).all(|(a, b)| a.abs_diff(b) < 24)).count();

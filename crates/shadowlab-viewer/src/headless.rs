@@ -7,7 +7,7 @@ use glam::Vec3;
 use shadowlab::Gpu;
 use shadowlab_core::View;
 
-use crate::present::{Painter, UI_FORMAT};
+use crate::present::{Painter, UI_FORMAT, step, ui_texture};
 use crate::script::Script;
 use crate::ui::{PANEL_WIDTH, Requests, Ui};
 use crate::viewer::{Overlay, Setup, Viewer, ViewerError};
@@ -49,21 +49,7 @@ impl Headless {
             ..Default::default()
         };
         input.viewports.entry(egui::ViewportId::ROOT).or_default().native_pixels_per_point = Some(1.0);
-        let (mut output, requests) = self.ui.run(&mut self.viewer, input, 1.0 / 30.0);
-        if let Err(e) = self.viewer.render() {
-            // Nothing is drawn this frame (the UI's texture changes come again with the next).
-            output.textures_delta.clear();
-            return Err(e);
-        }
-        if let Err(e) = self.painter.update_scene(&self.gpu, &self.viewer) {
-            // An overlay the technique cannot show: say so, show the plain image.
-            self.viewer.status = e.to_string();
-            self.viewer.overlay = Overlay::None;
-            if let Err(e) = self.painter.update_scene(&self.gpu, &self.viewer) {
-                output.textures_delta.clear();
-                return Err(e);
-            }
-        }
+        let (output, requests) = step(&self.gpu, &mut self.viewer, &mut self.ui, &mut self.painter, input, 1.0 / 30.0)?;
         if (self.target.width(), self.target.height()) != (ww, wh) {
             self.target = window_target(&self.gpu, ww, wh);
         }
@@ -142,14 +128,6 @@ impl Headless {
 }
 
 fn window_target(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("viewer window"),
-        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: UI_FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    ui_texture(gpu, "viewer window", width, height, usage)
 }

@@ -16,6 +16,7 @@
 //!
 //! Dependency boundary: the GPU engine and the UI; the CPU reference only behind `truth`.
 
+pub mod args;
 pub mod camera;
 pub mod headless;
 pub mod present;

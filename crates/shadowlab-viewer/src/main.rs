@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use shadowlab::{BackendChoice, Gpu};
-use shadowlab_viewer::Setup;
+use shadowlab_viewer::args::ViewArgs;
 use shadowlab_viewer::headless::Headless;
 use shadowlab_viewer::script::Script;
 use shadowlab_viewer::window::{WindowOptions, run};
@@ -18,40 +18,17 @@ use shadowlab_viewer::window::{WindowOptions, run};
     about = "Walk, drag, switch shadow techniques live, and see why a shadow fails"
 )]
 struct Args {
-    /// A built-in scene (`shadowlab scenes`), optionally with options, or a .toml, .gltf, .glb or .obj file.
-    #[arg(long, default_value = "room")]
-    scene: String,
-    /// A named view of the scene (default: its first).
-    #[arg(long)]
-    view: Option<String>,
-    /// The scene image's size, WIDTHxHEIGHT (the window adds the panel's 300 pixels on the left).
-    #[arg(long, default_value = "640x480", value_parser = parse_size)]
-    size: (u32, u32),
-    /// The technique every light starts with (`ID` or `ID:K=V,...`).
-    #[arg(long, default_value = "hard")]
-    technique: String,
+    #[command(flatten)]
+    view: ViewArgs,
     /// Headless: run this script of UI actions offscreen (see the `script` module's docs).
     #[arg(long, value_name = "FILE")]
     script: Option<PathBuf>,
     /// Headless: write the whole window (UI included) as a PNG after the script.
     #[arg(long, value_name = "OUT.png")]
     screenshot: Option<PathBuf>,
-    /// Windowed: close after this many frames (for tests under Xvfb).
-    #[arg(long)]
-    frames: Option<u64>,
     /// GPU backend for headless runs: auto, vulkan or gl.
     #[arg(long, default_value = "auto", value_parser = ["auto", "vulkan", "gl"])]
     backend: String,
-}
-
-fn parse_size(text: &str) -> Result<(u32, u32), String> {
-    let (w, h) = text.split_once(['x', 'X']).ok_or_else(|| format!("'{text}' is not WIDTHxHEIGHT"))?;
-    let parse = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("'{s}' in '{text}' is not a whole number"));
-    let (w, h) = (parse(w)?, parse(h)?);
-    if !(16..=8192).contains(&w) || !(16..=8192).contains(&h) {
-        return Err(format!("size {w}x{h} must be between 16x16 and 8192x8192"));
-    }
-    Ok((w, h))
 }
 
 fn main() {
@@ -62,15 +39,9 @@ fn main() {
 }
 
 fn run_viewer(args: Args) -> Result<()> {
-    let setup = Setup {
-        scene: args.scene.clone(),
-        view: args.view.clone(),
-        width: args.size.0,
-        height: args.size.1,
-        technique: args.technique.clone(),
-    };
+    let setup = args.view.setup();
     if args.script.is_some() || args.screenshot.is_some() {
-        if args.frames.is_some() {
+        if args.view.frames.is_some() {
             bail!("--frames is for the windowed viewer; a headless run renders the script's frames");
         }
         let script = match &args.script {
@@ -91,7 +62,7 @@ fn run_viewer(args: Args) -> Result<()> {
         }
         return Ok(());
     }
-    let frames = run(WindowOptions { setup, frames: args.frames, screenshot_dir: PathBuf::from(".") })?;
+    let frames = run(WindowOptions { setup, frames: args.view.frames, screenshot_dir: PathBuf::from(".") })?;
     println!("{frames} frames");
     Ok(())
 }

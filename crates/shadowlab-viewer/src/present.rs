@@ -3,7 +3,45 @@
 
 use shadowlab::Gpu;
 
+use crate::ui::{Requests, Ui};
 use crate::viewer::{Overlay, Viewer, ViewerError};
+
+/// The part of a frame every run shares: a UI pass over `input` (which may change `viewer`), the
+/// scene rendered, its image brought into the painter (an overlay the technique cannot show is
+/// turned off with a message). The caller paints the returned output into its target.
+pub fn step(
+    gpu: &Gpu,
+    viewer: &mut Viewer,
+    ui: &mut Ui,
+    painter: &mut Painter,
+    input: egui::RawInput,
+    seconds: f32,
+) -> Result<(egui::FullOutput, Requests), ViewerError> {
+    let (mut output, requests) = ui.run(viewer, input, seconds);
+    let mut shown = match viewer.render() {
+        Ok(_) => painter.update_scene(gpu, viewer),
+        // Not an overlay's fault: no retry below.
+        Err(e) => {
+            output.textures_delta.clear();
+            return Err(e);
+        }
+    };
+    if let Err(e) = &shown
+        && viewer.overlay != Overlay::None
+    {
+        viewer.status = e.to_string();
+        viewer.overlay = Overlay::None;
+        shown = painter.update_scene(gpu, viewer);
+    }
+    match shown {
+        Ok(()) => Ok((output, requests)),
+        Err(e) => {
+            // Nothing is drawn this frame (egui hands its texture changes out again).
+            output.textures_delta.clear();
+            Err(e)
+        }
+    }
+}
 
 /// The format egui draws in and the scene image is shown from: gamma-space bytes (egui-wgpu's
 /// preferred output; the renderer's sRGB image is copied byte for byte, so the window shows
@@ -141,14 +179,19 @@ fn write_or_copy(gpu: &Gpu, viewer: &Viewer, target: &wgpu::Texture) -> Result<(
 }
 
 fn scene_texture_of(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
+    ui_texture(gpu, "viewer scene", width, height, wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST)
+}
+
+/// A `UI_FORMAT` texture of `width × height`.
+pub fn ui_texture(gpu: &Gpu, label: &str, width: u32, height: u32, usage: wgpu::TextureUsages) -> wgpu::Texture {
     gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("viewer scene"),
+        label: Some(label),
         size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format: UI_FORMAT,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        usage,
         view_formats: &[],
     })
 }

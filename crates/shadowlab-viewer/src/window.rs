@@ -10,9 +10,9 @@ use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::window::{Window, WindowId};
 
-use crate::present::Painter;
+use crate::present::{Painter, step};
 use crate::ui::{PANEL_WIDTH, Ui};
-use crate::viewer::{Overlay, Setup, Viewer, ViewerError};
+use crate::viewer::{Setup, Viewer, ViewerError};
 
 /// How the windowed run ends: the user closes it, or after `frames` frames (tests under Xvfb).
 #[derive(Debug, Clone)]
@@ -178,19 +178,7 @@ fn frame(r: &mut Running, options: &WindowOptions) -> Result<(), ViewerError> {
     let seconds = r.last.elapsed().as_secs_f32();
     r.last = Instant::now();
     let input = r.input.take_egui_input(&r.window);
-    let (mut output, requests) = r.ui.run(&mut r.viewer, input, seconds);
-    if let Err(e) = r.viewer.render() {
-        output.textures_delta.clear();
-        return Err(e);
-    }
-    if let Err(e) = r.painter.update_scene(&r.gpu, &r.viewer) {
-        r.viewer.status = e.to_string();
-        r.viewer.overlay = Overlay::None;
-        if let Err(e) = r.painter.update_scene(&r.gpu, &r.viewer) {
-            output.textures_delta.clear();
-            return Err(e);
-        }
-    }
+    let (output, requests) = step(&r.gpu, &mut r.viewer, &mut r.ui, &mut r.painter, input, seconds)?;
     if let Some(text) = &requests.copy {
         r.ui.ctx.copy_text(text.clone());
         r.viewer.status = format!("copied: {text}");

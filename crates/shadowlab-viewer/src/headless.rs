@@ -82,7 +82,9 @@ impl Headless {
             }
             if let Some(o) = &step.overlay {
                 v.overlay = Overlay::parse(o).ok_or_else(|| {
-                    at(ViewerError::Other(format!("overlay '{o}' (known: none, visibility, texel-grid, error)")))
+                    at(ViewerError::Other(format!(
+                        "overlay '{o}' (known: none, visibility, splits, texels, sampling, fill, error)"
+                    )))
                 })?;
             }
             if let Some(name) = &step.view {

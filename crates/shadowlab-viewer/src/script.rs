@@ -9,7 +9,7 @@
 //! param = "kernel"            # one parameter of the selected light's technique
 //! value = "7"
 //! [[step]]
-//! overlay = "texel-grid"      # none | visibility | texel-grid
+//! overlay = "sampling"        # none | visibility | splits | texels | sampling | fill | error
 //! [[step]]
 //! drag = "chair east"         # drag an instance by a world vector over `frames` frames, then release
 //! by = [0.5, 0.0, 0.0]

@@ -13,12 +13,15 @@ use crate::viewer::ViewerError;
 /// A world-space line segment and its colour (RGB).
 pub type Segment = ([Vec3; 2], [u8; 3]);
 
-/// The eye's frustum colour, the focus body's, and one per map view (the maps overlay's).
+/// The eye's frustum colour and the focus body's.
 pub const EYE_COLOUR: [u8; 3] = [255, 255, 255];
 pub const FOCUS_COLOUR: [u8; 3] = [255, 236, 0];
 pub const LIGHT_COLOUR: [u8; 3] = [255, 128, 0];
-pub const VIEW_COLOURS: [[u8; 3]; 6] =
-    [[230, 60, 60], [60, 200, 80], [70, 110, 240], [240, 200, 50], [200, 80, 220], [60, 210, 220]];
+
+/// Map view `k`'s colour: the splits overlay's (`cascades::split_colour`).
+pub fn view_colour(k: usize) -> [u8; 3] {
+    shadowlab_core::cascades::split_colour(k).to_array().map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)
+}
 
 /// The second camera's renderer, rebuilt from the live scene whenever an edit or a technique change
 /// made it stale.

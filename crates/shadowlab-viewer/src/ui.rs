@@ -99,7 +99,7 @@ fn panel(ui: &mut egui::Ui, viewer: &mut Viewer, requests: &mut Requests) {
                 ui.radio_value(&mut viewer.overlay, o, o.name());
             }
         });
-        if viewer.overlay == Overlay::TexelGrid {
+        if viewer.overlay == Overlay::Texels {
             ui.add(egui::Slider::new(&mut viewer.grid, 1..=64).text("texels per line"));
         }
         ab_row(ui, viewer);

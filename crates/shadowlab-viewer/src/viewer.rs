@@ -52,18 +52,19 @@ impl Default for Setup {
     }
 }
 
-/// An analysis drawn over the scene image.
+/// An analysis drawn over the scene image (`shadowlab::analysis`'s pictures, as `render --overlay`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Overlay {
     #[default]
     None,
     /// The selected light's visibility, black (shadowed) to white (lit).
     Visibility,
-    /// The projected texel grid of the selected light's map, coloured by texels per pixel
-    /// (Stingl 2011 §5's sampling-frequency view: red undersampled, green about one, blue over).
-    TexelGrid,
-    /// Which map shades each pixel (cascade split, cube face), one colour each (Stingl 2011 §5).
-    Maps,
+    /// Which map (cascade split, cube face) shades each pixel (Stingl 2011 §5.2's colours).
+    Splits,
+    /// The projected texel grid of the selected light's maps (Stingl 2011 §5.2).
+    Texels,
+    /// Map texels per screen pixel (Stingl 2011 Listing A.3: red undersampled, green 1:1, blue over).
+    Sampling,
     /// Shadow-volume fragments per pixel of every light (Hasselgren 2003 Fig. 8's overdraw).
     Fill,
     /// The selected light's error against the ray-traced truth (blue: too dark, red: too bright),
@@ -72,15 +73,23 @@ pub enum Overlay {
 }
 
 impl Overlay {
-    pub const ALL: [Overlay; 6] =
-        [Overlay::None, Overlay::Visibility, Overlay::TexelGrid, Overlay::Maps, Overlay::Fill, Overlay::Error];
+    pub const ALL: [Overlay; 7] = [
+        Overlay::None,
+        Overlay::Visibility,
+        Overlay::Splits,
+        Overlay::Texels,
+        Overlay::Sampling,
+        Overlay::Fill,
+        Overlay::Error,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             Self::None => "none",
             Self::Visibility => "visibility",
-            Self::TexelGrid => "texel-grid",
-            Self::Maps => "maps",
+            Self::Splits => "splits",
+            Self::Texels => "texels",
+            Self::Sampling => "sampling",
             Self::Fill => "fill",
             Self::Error => "error",
         }
@@ -378,7 +387,7 @@ impl Viewer {
     /// H = V ∩ S (extruded towards a directional light: B), where the selected light is and where it
     /// shines, and its map views of the frame shown.
     pub fn frusta(&self) -> Vec<crate::third_person::Segment> {
-        use crate::third_person::{VIEW_COLOURS, eye_frustum, focus_body, focus_extrusion, light_marker, view_frustum};
+        use crate::third_person::{eye_frustum, focus_body, focus_extrusion, light_marker, view_colour, view_frustum};
         let (w, h) = self.size();
         let (eye, aspect, bounds) = (self.camera.view(), w as f32 / h.max(1) as f32, self.scene().bounds());
         let mut s = eye_frustum(&eye, aspect, bounds.diagonal());
@@ -390,7 +399,7 @@ impl Viewer {
         s.extend(body);
         if let Ok(id) = self.light_id(self.selected_light) {
             for (k, v) in self.renderer.light_views(id).iter().enumerate() {
-                s.extend(view_frustum(v, VIEW_COLOURS[k % VIEW_COLOURS.len()]));
+                s.extend(view_frustum(v, view_colour(k)));
             }
         }
         s
@@ -506,80 +515,49 @@ impl Viewer {
 
     /// The image with the overlay drawn in, RGBA8 (sRGB), top row first.
     pub fn image_rgba(&self) -> Result<Vec<u8>, ViewerError> {
-        let rgb = self.renderer.read_image()?;
-        let mut rgba: Vec<u8> = rgb.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+        use shadowlab::analysis::{MapPicture, compose_fill, compose_maps};
+        let image = self.renderer.read_image()?;
         let light = self.light_id(self.selected_light)?;
-        match self.overlay {
-            Overlay::None => {}
-            Overlay::Visibility => {
-                if let Some(v) = self.renderer.read_visibility(light)? {
-                    for (px, &v) in rgba.chunks_exact_mut(4).zip(&v) {
-                        let g = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-                        px[..3].copy_from_slice(&[g, g, g]);
-                    }
-                }
-            }
-            Overlay::Maps => {
-                let Some(o) = self.renderer.map_overlay(light, self.grid)? else {
-                    return Err(self.no_maps("the maps overlay"));
-                };
-                for (i, px) in rgba.chunks_exact_mut(4).enumerate() {
-                    if o.map[i] >= 0 {
-                        let tint = MAP_COLOURS[o.map[i] as usize % MAP_COLOURS.len()];
-                        for c in 0..3 {
-                            px[c] = (f32::from(px[c]) * 0.5 + tint[c] * 0.5).round() as u8;
-                        }
-                    }
-                }
-            }
+        let maps = |picture: MapPicture, what: &str| -> Result<Vec<u8>, ViewerError> {
+            let o = self.renderer.map_overlay(light, self.grid)?.ok_or_else(|| self.no_maps(what))?;
+            Ok(compose_maps(&image, &o, picture))
+        };
+        let rgb = match self.overlay {
+            Overlay::None => image.clone(),
+            Overlay::Visibility => match self.renderer.read_visibility(light)? {
+                Some(v) => v.iter().flat_map(|&x| [(x.clamp(0.0, 1.0) * 255.0).round() as u8; 3]).collect(),
+                None => image.clone(),
+            },
+            Overlay::Splits => maps(MapPicture::Splits, "the splits overlay")?,
+            Overlay::Texels => maps(MapPicture::Texels, "the texel grid")?,
+            Overlay::Sampling => maps(MapPicture::Sampling, "the sampling overlay")?,
             Overlay::Fill => {
                 let lights: Vec<LightId> = self.live().lights().iter().map(|s| s.id).collect();
-                let Some(counts) = self.renderer.fill_counts(&lights)? else {
-                    return Err(ViewerError::Other(
+                let counts = self.renderer.fill_counts(&lights)?.ok_or_else(|| {
+                    ViewerError::Other(
                         "the fill overlay needs shadow volumes (volumes, lightmesh, lightmaps over volumes)".into(),
-                    ));
-                };
-                // Fragments per pixel on a log scale: black none, white the frame's most.
-                let max = counts.iter().copied().max().unwrap_or(0).max(1) as f32;
-                for (px, &c) in rgba.chunks_exact_mut(4).zip(&counts) {
-                    let t = ((1.0 + c as f32).ln() / (1.0 + max).ln()).clamp(0.0, 1.0);
-                    let g = (255.0 * t).round() as u8;
-                    px[..3].copy_from_slice(&[g, (f32::from(g) * 0.8) as u8, (f32::from(g) * 0.3) as u8]);
-                }
+                    )
+                })?;
+                compose_fill(&image, &counts)
             }
-            Overlay::Error => {
-                #[cfg(feature = "truth")]
-                if let Some(t) = self.current_truth() {
-                    for (px, rgb) in rgba.chunks_exact_mut(4).zip(t.heatmap.chunks_exact(3)) {
-                        px[..3].copy_from_slice(rgb);
-                    }
-                    return Ok(rgba);
-                }
-                return Err(ViewerError::Other(
-                    "the error overlay needs the truth of this frame and light: press T (trace the truth)".into(),
-                ));
-            }
-            Overlay::TexelGrid => {
-                if let Some(o) = self.renderer.map_overlay(light, self.grid)? {
-                    for (i, px) in rgba.chunks_exact_mut(4).enumerate() {
-                        if o.map[i] < 0 || !o.on_map[i] {
-                            continue;
-                        }
-                        let tint = sampling_colour(o.texels_per_pixel[i]);
-                        let a = if o.grid_line[i] { 0.9 } else { 0.25 };
-                        for c in 0..3 {
-                            px[c] = (f32::from(px[c]) * (1.0 - a) + tint[c] * a).round() as u8;
-                        }
-                    }
-                } else {
-                    return Err(self.no_maps("the texel grid"));
-                }
-            }
-        }
+            Overlay::Error => self.error_heatmap()?,
+        };
+        let mut rgba: Vec<u8> = rgb.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
         if let Some(ab) = &self.ab {
             self.compose_ab(ab, &mut rgba)?;
         }
         Ok(rgba)
+    }
+
+    /// The traced truth's heatmap of the frame shown and the selected light.
+    fn error_heatmap(&self) -> Result<Vec<u8>, ViewerError> {
+        #[cfg(feature = "truth")]
+        if let Some(t) = self.current_truth() {
+            return Ok(t.heatmap.clone());
+        }
+        Err(ViewerError::Other(
+            "the error overlay needs the truth of this frame and light: press T (trace the truth)".into(),
+        ))
     }
 
     /// The right half of `rgba` from the A/B split's renderer (its visibility with the visibility
@@ -588,8 +566,11 @@ impl Viewer {
         let (w, h) = self.size();
         let b: Vec<[u8; 3]> = match self.overlay {
             Overlay::Visibility => {
-                let id = ab.renderer.shadows.live().lights()[ab.light].id;
-                let v = ab.renderer.read_visibility(id)?.unwrap_or_default();
+                let id = ab.renderer.shadows.live().lights().get(ab.light).map(|s| s.id);
+                let v = match id {
+                    Some(id) => ab.renderer.read_visibility(id)?.unwrap_or_default(),
+                    None => Vec::new(),
+                };
                 v.iter().map(|&x| [(x.clamp(0.0, 1.0) * 255.0).round() as u8; 3]).collect()
             }
             _ => ab.renderer.read_image()?.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect(),
@@ -750,23 +731,6 @@ pub fn spec_text(spec: &TechniqueSpec) -> String {
         .map(|(def, value)| format!("{}={}", def.name, value))
         .collect();
     if changed.is_empty() { spec.info.id.to_owned() } else { format!("{}:{}", spec.info.id, changed.join(",")) }
-}
-
-/// One colour per map of the maps overlay (splits, cube faces).
-const MAP_COLOURS: [[f32; 3]; 6] = [
-    [230.0, 60.0, 60.0],
-    [60.0, 200.0, 80.0],
-    [70.0, 110.0, 240.0],
-    [240.0, 200.0, 50.0],
-    [200.0, 80.0, 220.0],
-    [60.0, 210.0, 220.0],
-];
-
-/// Texels per pixel as a colour (Stingl 2011 §5): red below one texel per pixel (undersampled),
-/// green about one, blue above four.
-pub fn sampling_colour(texels_per_pixel: f32) -> [f32; 3] {
-    let t = texels_per_pixel.max(1e-6).log2().clamp(-2.0, 2.0) / 2.0;
-    if t < 0.0 { [255.0, 255.0 * (1.0 + t), 0.0] } else { [0.0, 255.0 * (1.0 - t), 255.0 * t] }
 }
 
 /// A hash of the camera and the scene's edit epoch.

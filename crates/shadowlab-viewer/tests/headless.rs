@@ -61,50 +61,50 @@ fn the_scene_area_equals_the_render_of_the_same_view() {
     assert!(panel_lit.count() > 200, "the panel's text is missing");
 }
 
-/// Overlays change the picture: the visibility overlay is grey, the texel grid tints, and a
-/// technique that shades from no single map says so instead of failing.
+/// The overlays are `shadowlab::analysis`'s pictures (those of `render --overlay`) over the eye's
+/// image, exactly; the visibility overlay is the light's V in grey; and a technique that shades
+/// from no single map says so instead of failing.
 #[test]
-fn overlays_change_the_image() {
+fn overlays_show_the_analysis_pictures() {
+    use shadowlab::analysis::{MapPicture, compose_fill, compose_maps};
     let (w, h) = (96, 72);
     let mut viewer = Headless::new(gpu(), setup("hard", w, h)).unwrap();
     viewer.frame(Vec::new()).unwrap();
     let plain = scene_area(&viewer.screenshot().unwrap(), w, h);
+    let changed = |a: &[u8], b: &[u8]| a.chunks_exact(3).zip(b.chunks_exact(3)).filter(|(p, q)| p != q).count();
     viewer.viewer.overlay = Overlay::Visibility;
     viewer.frame(Vec::new()).unwrap();
     let visibility = scene_area(&viewer.screenshot().unwrap(), w, h);
-    let grey = visibility.chunks_exact(3).filter(|p| p[0] == p[1] && p[1] == p[2]).count();
-    assert_eq!(grey, (w * h) as usize, "the visibility overlay is grey everywhere");
+    let id = viewer.viewer.light_id(viewer.viewer.selected_light).unwrap();
+    let v = viewer.viewer.renderer.read_visibility(id).unwrap().unwrap();
+    let grey: Vec<u8> = v.iter().flat_map(|&x| [(x.clamp(0.0, 1.0) * 255.0).round() as u8; 3]).collect();
+    assert_eq!(visibility, grey, "the visibility overlay is V in grey");
     let dark = visibility.chunks_exact(3).filter(|p| p[0] < 128).count();
     assert!(dark > 0 && dark < (w * h) as usize, "the light's shadow shows ({dark} dark pixels)");
-    viewer.viewer.overlay = Overlay::TexelGrid;
-    viewer.frame(Vec::new()).unwrap();
-    let grid = scene_area(&viewer.screenshot().unwrap(), w, h);
-    let changed = |a: &[u8], b: &[u8]| a.chunks_exact(3).zip(b.chunks_exact(3)).filter(|(p, q)| p != q).count();
-    // Every pixel on the map is tinted; the room fills the view.
-    assert!(changed(&plain, &grid) > (w * h / 2) as usize, "the texel grid tints the image");
-    assert!(changed(&plain, &visibility) > (w * h / 2) as usize);
-    viewer.viewer.overlay = Overlay::Maps;
-    viewer.frame(Vec::new()).unwrap();
-    let maps = scene_area(&viewer.screenshot().unwrap(), w, h);
-    assert!(changed(&grid, &maps) > (w * h / 2) as usize, "the maps overlay is not the grid");
-    // The ceiling lamp inside the room: a cube of six faces, at least three in view.
-    let mut colours: Vec<[u8; 3]> = Vec::new();
-    for (p, q) in maps.chunks_exact(3).zip(plain.chunks_exact(3)) {
-        // The tint of a pixel: twice the shown colour minus the plain one.
-        let tint = [0, 1, 2].map(|c| (2 * i32::from(p[c]) - i32::from(q[c])).clamp(0, 255) as u8 / 64);
-        if p != q && !colours.contains(&tint) {
-            colours.push(tint);
-        }
+    for (overlay, picture) in [
+        (Overlay::Splits, MapPicture::Splits),
+        (Overlay::Texels, MapPicture::Texels),
+        (Overlay::Sampling, MapPicture::Sampling),
+    ] {
+        viewer.viewer.overlay = overlay;
+        viewer.frame(Vec::new()).unwrap();
+        let shown = scene_area(&viewer.screenshot().unwrap(), w, h);
+        let r = &viewer.viewer.renderer;
+        let o = r.map_overlay(id, viewer.viewer.grid).unwrap().expect("hard has maps");
+        assert_eq!(shown, compose_maps(&r.read_image().unwrap(), &o, picture), "{overlay:?}");
+        assert!(changed(&plain, &shown) > 0, "{overlay:?} draws something");
     }
-    assert!(colours.len() >= 3, "map colours seen: {colours:?}");
     viewer.viewer.set_technique(0, "volumes").unwrap();
     viewer.viewer.overlay = Overlay::Fill;
     viewer.frame(Vec::new()).unwrap();
     assert_eq!(viewer.viewer.overlay, Overlay::Fill, "{}", viewer.viewer.status);
     let fill = scene_area(&viewer.screenshot().unwrap(), w, h);
-    let lit = fill.chunks_exact(3).filter(|p| p[0] > 0).count();
-    assert!(lit > 0 && lit < (w * h) as usize, "volume fragments cover part of the view ({lit} pixels)");
-    viewer.viewer.overlay = Overlay::TexelGrid;
+    let r = &viewer.viewer.renderer;
+    let lights: Vec<LightId> = r.shadows.live().lights().iter().map(|s| s.id).collect();
+    let counts = r.fill_counts(&lights).unwrap().expect("volumes count fragments");
+    assert_eq!(fill, compose_fill(&r.read_image().unwrap(), &counts));
+    assert!(changed(&plain, &fill) > 0, "volume fragments cover part of the view");
+    viewer.viewer.overlay = Overlay::Texels;
     viewer.viewer.set_technique(0, "none").unwrap();
     viewer.frame(Vec::new()).unwrap();
     assert_eq!(viewer.viewer.overlay, Overlay::None, "an overlay the technique cannot show is turned off");
@@ -351,7 +351,7 @@ fn the_third_person_view_draws_the_frusta() {
         |c: [u8; 3]| third.chunks_exact(3).filter(|p| p.iter().zip(c).all(|(a, b)| a.abs_diff(b) < 24)).count();
     assert!(colour_count([255, 255, 255]) > 20, "the eye's frustum is drawn");
     assert!(colour_count(shadowlab_viewer::third_person::FOCUS_COLOUR) > 20, "the focus body is drawn");
-    let drawn = shadowlab_viewer::third_person::VIEW_COLOURS.iter().filter(|&&c| colour_count(c) > 5).count();
+    let drawn = (0..6).map(shadowlab_viewer::third_person::view_colour).filter(|&c| colour_count(c) > 5).count();
     assert!(drawn >= 2, "the lamp's faces are drawn ({drawn} colours seen)");
     // Looking through a cube face of the lamp: from the lamp, along the face's axis.
     let face = viewer.viewer.renderer.light_views(LightId(viewer.viewer.selected_light as u32))[3];

@@ -11,6 +11,7 @@
 //!   mapping) with readbacks for the reports.
 //! - [`technique`]: the technique contract and registry; [`techniques`]: the techniques.
 
+pub mod analysis;
 pub mod auto;
 pub mod context;
 pub mod depth_range;

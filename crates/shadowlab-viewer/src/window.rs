@@ -88,8 +88,14 @@ impl ApplicationHandler for App {
                 r.config.width = size.width.max(1);
                 r.config.height = size.height.max(1);
                 r.surface.configure(&r.gpu.device, &r.config);
-                let (w, h) = (size.width.saturating_sub(PANEL_WIDTH).max(16), size.height.max(16));
-                if let Err(e) = r.viewer.renderer.resize(w, h) {
+                // The scene image is shown at one point per pixel: on a high-density screen it
+                // takes the window's size in points, less the panel.
+                let scale = r.window.scale_factor().max(0.25);
+                let points = |px: u32| (f64::from(px) / scale) as u32;
+                let (w, h) = (points(size.width).saturating_sub(PANEL_WIDTH).max(16), points(size.height).max(16));
+                if (w, h) != r.viewer.size()
+                    && let Err(e) = r.viewer.renderer.resize(w, h)
+                {
                     r.viewer.status = e.to_string();
                 }
             }

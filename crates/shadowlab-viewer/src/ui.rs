@@ -112,9 +112,18 @@ fn panel(ui: &mut egui::Ui, viewer: &mut Viewer, requests: &mut Requests) {
             let mut look = None;
             ui.horizontal_wrapped(|ui| {
                 ui.label("light views:");
-                for k in 0..views {
-                    if ui.small_button(format!("{k}")).on_hover_text("look through this map view").clicked() {
-                        look = Some(k);
+                if views <= 12 {
+                    for k in 0..views {
+                        if ui.small_button(format!("{k}")).on_hover_text("look through this map view").clicked() {
+                            look = Some(k);
+                        }
+                    }
+                } else {
+                    // Samples × faces: pick one by number.
+                    let k = &mut viewer.light_view_index;
+                    ui.add(egui::DragValue::new(k).range(0..=views - 1));
+                    if ui.small_button(format!("look (of {views})")).clicked() {
+                        look = Some(*k);
                     }
                 }
             });

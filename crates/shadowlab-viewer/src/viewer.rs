@@ -130,6 +130,8 @@ pub struct Viewer {
     specs: Vec<TechniqueSpec>,
     pub selected_light: usize,
     pub overlay: Overlay,
+    /// The map view picked to look through when there are many (samples × faces).
+    pub light_view_index: usize,
     /// Texels between texel-grid lines.
     pub grid: u32,
     drag: Option<Drag>,
@@ -212,6 +214,7 @@ impl Viewer {
             specs,
             selected_light: 0,
             overlay: Overlay::None,
+            light_view_index: 0,
             grid: 4,
             drag: None,
             last: None,
@@ -398,7 +401,8 @@ impl Viewer {
         }
         s.extend(body);
         if let Ok(id) = self.light_id(self.selected_light) {
-            for (k, v) in self.renderer.light_views(id).iter().enumerate() {
+            // Sampled lights have a view per sample and face: the first ones make the point.
+            for (k, v) in self.renderer.light_views(id).iter().take(MAX_DRAWN_VIEWS).enumerate() {
                 s.extend(view_frustum(v, view_colour(k)));
             }
         }
@@ -732,6 +736,9 @@ pub fn spec_text(spec: &TechniqueSpec) -> String {
         .collect();
     if changed.is_empty() { spec.info.id.to_owned() } else { format!("{}:{}", spec.info.id, changed.join(",")) }
 }
+
+/// The most map views the third-person view draws (64 samples of a cube make 384).
+const MAX_DRAWN_VIEWS: usize = 48;
 
 /// A hash of the camera and the scene's edit epoch.
 fn state_signature(view: &shadowlab_core::View, epoch: u64) -> u64 {

@@ -366,6 +366,13 @@ fn the_third_person_view_draws_the_frusta() {
     viewer.viewer.active_camera().travel(Vec3::new(0.0, 0.0, 1.0), 0.5);
     assert!(viewer.viewer.third_person.as_ref().unwrap().fixed.is_none(), "moving leaves the light view");
     assert_eq!(viewer.viewer.camera, eye, "the keys move the third person, not the eye");
+    // A sampled light's frusta: one view per emitter sample and cube face.
+    let lamp = viewer.viewer.selected_light;
+    viewer.viewer.set_technique(lamp, "sampled:samples=4").unwrap();
+    viewer.frame(Vec::new()).unwrap();
+    let sample_views = viewer.viewer.renderer.light_views(LightId(lamp as u32)).len();
+    assert_eq!(sample_views, 4 * 6, "4 samples × 6 faces");
+    viewer.viewer.set_technique(lamp, "hard").unwrap();
     viewer.viewer.set_third_person(false).unwrap();
     viewer.frame(Vec::new()).unwrap();
     assert_eq!(scene_area(&viewer.screenshot().unwrap(), w, h), eye_image, "back to the eye's image");

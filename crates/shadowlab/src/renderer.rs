@@ -734,11 +734,11 @@ impl Renderer {
         Ok(total)
     }
 
-    /// The map views (cube faces, cascade splits) `light`'s technique shaded the last frame from;
-    /// empty for techniques without one map per pixel.
+    /// The map views (cube faces, cascade splits, emitter samples' views) `light`'s technique
+    /// shaded the last frame from; empty for techniques without maps.
     pub fn light_views(&self, light: LightId) -> Vec<shadowlab_core::lightspace::ShadowView> {
         let Some(s) = self.shadows.lights.iter().find(|s| s.light == light) else { return Vec::new() };
-        s.shown_technique().analysis().map_or_else(Vec::new, |a| a.views.to_vec())
+        s.shown_technique().map_views()
     }
 
     /// Analyses the maps of `light`'s technique for the last rendered frame; `None` when the

@@ -241,6 +241,11 @@ impl SampleMaps {
         }
     }
 
+    /// Every sample's views, in slot order.
+    pub fn views(&self) -> &[ShadowView] {
+        &self.views
+    }
+
     /// Sets every sample's views (stored now for shared layers, where samples read their face's
     /// layer; at the next [`SampleMaps::update`] for cached ones).
     pub fn set_views(&mut self, queue: &wgpu::Queue, frusta: &[LightFrusta]) {

@@ -191,6 +191,13 @@ pub trait ShadowTechnique: Send {
         None
     }
 
+    /// Every map view behind the last frame (cube faces, cascade splits, emitter samples' views),
+    /// for drawing their frusta (the viewer's third-person view). By default those of
+    /// [`ShadowTechnique::analysis`].
+    fn map_views(&self) -> Vec<shadowlab_core::lightspace::ShadowView> {
+        self.analysis().map_or_else(Vec::new, |a| a.views.to_vec())
+    }
+
     /// Shadow-volume fill of the first frame: buffers of u32 counters, the total then one per pixel
     /// (row by row), for `render --overlay fill` (Hasselgren 2003 Fig. 8). Empty for techniques
     /// without volumes.

@@ -260,6 +260,10 @@ impl Cssm {
 }
 
 impl ShadowTechnique for Cssm {
+    fn map_views(&self) -> Vec<shadowlab_core::lightspace::ShadowView> {
+        self.cascades.iter().flat_map(|c| c.set.views().iter().copied()).collect()
+    }
+
     fn id(&self) -> &'static str {
         INFO.id
     }

@@ -165,6 +165,10 @@ impl Sampled {
 }
 
 impl ShadowTechnique for Sampled {
+    fn map_views(&self) -> Vec<shadowlab_core::lightspace::ShadowView> {
+        self.state.as_ref().map_or_else(Vec::new, |s| s.set.views().to_vec())
+    }
+
     fn id(&self) -> &'static str {
         INFO.id
     }

@@ -81,6 +81,58 @@ pub fn planar_patches(scene: &Scene, min_area: f32) -> Vec<Patch> {
         .collect()
 }
 
+/// [`planar_patches`] kept per instance across calls: an instance's patches are found again only
+/// when what they depend on changed (its mesh, transform, role, whether it receives shadows) or
+/// `min_area` did. A drag moves one object; the others' patches stay (finding them walks every
+/// triangle, for every light, in every frame the scene changed).
+#[derive(Debug, Clone, Default)]
+pub struct PatchCache {
+    min_area: f32,
+    /// Per instance index: what the patches were found for, and the patches (`instance` fields
+    /// are rewritten on the way out, so an index shift after a removal only costs a recompute).
+    entries: Vec<Option<(PatchKey, Vec<Patch>)>>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+struct PatchKey {
+    mesh: crate::scene::MeshId,
+    transform: glam::Affine3A,
+    role: Option<Role>,
+    receives_shadows: bool,
+}
+
+impl PatchCache {
+    /// The same patches as `planar_patches(scene, min_area)`, in the same order.
+    pub fn patches(&mut self, scene: &Scene, min_area: f32) -> Vec<Patch> {
+        if self.min_area.to_bits() != min_area.to_bits() {
+            self.entries.clear();
+            self.min_area = min_area;
+        }
+        self.entries.resize(scene.instances.len(), None);
+        let mut out = Vec::new();
+        for (i, inst) in scene.instances.iter().enumerate() {
+            let key = PatchKey {
+                mesh: inst.mesh,
+                transform: inst.transform,
+                role: inst.role,
+                receives_shadows: inst.receives_shadows,
+            };
+            let entry = &mut self.entries[i];
+            if entry.as_ref().is_none_or(|(k, _)| *k != key) {
+                let patches = if is_receiver(scene, inst, min_area) {
+                    instance_patches(scene, inst, i, min_area)
+                } else {
+                    Vec::new()
+                };
+                *entry = Some((key, patches));
+            }
+            let (_, patches) = entry.as_ref().expect("filled above");
+            out.extend(patches.iter().map(|p| Patch { instance: i, ..*p }));
+        }
+        out
+    }
+}
+
 /// The planes of one instance with at least `min_area` of triangles.
 pub fn instance_patches(scene: &Scene, inst: &Instance, index: usize, min_area: f32) -> Vec<Patch> {
     let Some(mesh) = scene.meshes.get(inst.mesh.index()) else { return Vec::new() };
@@ -173,6 +225,33 @@ mod tests {
 
     use super::*;
     use crate::{Material, primitives};
+
+    /// The cache gives what `planar_patches` gives, after moves, a role change, a removal and a
+    /// new `min_area`, and recomputes nothing when nothing changed.
+    #[test]
+    fn cached_patches_equal_fresh_ones_after_every_change() {
+        let mut scene = crate::load_scene("room").expect("room").scene;
+        let mut cache = PatchCache::default();
+        let check = |cache: &mut PatchCache, scene: &Scene, min_area: f32, what: &str| {
+            assert_eq!(cache.patches(scene, min_area), planar_patches(scene, min_area), "after {what}");
+        };
+        check(&mut cache, &scene, 1.0, "the first call");
+        let floor = scene.instances.iter().position(|i| i.role == Some(Role::Receiver)).expect("a receiver");
+        scene.instances[floor].transform =
+            Affine3A::from_translation(Vec3::new(0.3, 0.0, -0.2)) * scene.instances[floor].transform;
+        check(&mut cache, &scene, 1.0, "moving a receiver");
+        scene.instances[floor].role = None;
+        check(&mut cache, &scene, 1.0, "a role change");
+        scene.instances[floor].receives_shadows = false;
+        check(&mut cache, &scene, 1.0, "no longer receiving");
+        scene.instances.remove(0);
+        check(&mut cache, &scene, 1.0, "a removal");
+        check(&mut cache, &scene, 0.25, "a smaller minimum area");
+        // Unchanged: every entry is kept as it is.
+        let before = cache.entries.clone();
+        let _ = cache.patches(&scene, 0.25);
+        assert_eq!(format!("{:?}", cache.entries), format!("{before:?}"));
+    }
 
     #[test]
     fn a_box_floor_has_its_large_faces_as_patches() {

@@ -25,7 +25,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 use shadowlab_core::params::ParamDef;
-use shadowlab_core::receivers::{Patch, planar_patches};
+use shadowlab_core::receivers::{Patch, PatchCache};
 use shadowlab_core::sampling::{EmitterPoint, EmitterSample, SamplePattern, emitter_points_with};
 use shadowlab_core::{Aabb, Light, ParamSet};
 
@@ -93,7 +93,15 @@ fn compose(
         &[&lookup_layout(shared)],
         &[],
     );
-    Ok(Box::new(Lightmaps { params: params.clone(), rest, state: None, lookup, filled: 0, draws: 0 }))
+    Ok(Box::new(Lightmaps {
+        params: params.clone(),
+        rest,
+        state: None,
+        patches: PatchCache::default(),
+        lookup,
+        filled: 0,
+        draws: 0,
+    }))
 }
 
 /// `struct Fill` of `fill.wgsl`.
@@ -128,6 +136,8 @@ struct Lightmaps {
     params: ParamSet,
     rest: Box<dyn ShadowTechnique>,
     state: Option<State>,
+    /// The receivers' planes, found again only for instances an edit changed.
+    patches: PatchCache,
     lookup: wgpu::ComputePipeline,
     /// Light maps filled in the last frame.
     filled: u32,
@@ -610,7 +620,7 @@ impl ShadowTechnique for Lightmaps {
         let samples = self.emitter_samples(ctx.light);
         let epoch = ctx.live.epoch();
         if self.state.as_ref().is_none_or(|s| s.epoch != epoch) {
-            let mut patches = planar_patches(ctx.scene, self.params.float("min_area") as f32);
+            let mut patches = self.patches.patches(ctx.scene, self.params.float("min_area") as f32);
             // A heightfield is a receiver of many small planes: keep the largest (layers and
             // per-pixel lookups are bounded), the rest of the surface goes to `rest`.
             let max_maps = self.params.int("max_maps") as usize;

@@ -6,7 +6,7 @@ use glam::{Affine3A, Vec3};
 use shadowlab::live::LiveScene;
 use shadowlab::{Edit, FrameReport, Gpu, InstanceId, LightChange, Renderer, TechniqueSpec};
 use shadowlab_core::bvh::{PreparedRay, SceneBvh, Selection};
-use shadowlab_core::{LightId, Mobility, ParamValue, Scene};
+use shadowlab_core::{LightId, Mobility, Scene};
 
 use crate::camera::FlyCamera;
 
@@ -172,11 +172,8 @@ impl Viewer {
     pub fn load(setup: &Setup) -> Result<shadowlab_core::load::Loaded, ViewerError> {
         let loaded = shadowlab_core::load::load_scene(&setup.scene)
             .map_err(|e| ViewerError::Scene { spec: setup.scene.clone(), message: e.to_string() })?;
-        if let Some(name) = &setup.view
-            && loaded.scene.view(name).is_none()
-        {
-            let known = loaded.scene.views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", ");
-            return Err(ViewerError::UnknownView { name: name.clone(), known });
+        if let Some(name) = &setup.view {
+            find_view(&loaded.scene, name)?;
         }
         check_size(setup.width, setup.height)?;
         TechniqueSpec::parse(&setup.technique, &[])?;
@@ -187,12 +184,7 @@ impl Viewer {
     pub fn with_scene(gpu: &Gpu, setup: Setup, loaded: shadowlab_core::load::Loaded) -> Result<Self, ViewerError> {
         let scene = loaded.scene;
         let view = match &setup.view {
-            Some(name) => {
-                scene.views.iter().find(|v| &v.name == name).cloned().ok_or_else(|| ViewerError::UnknownView {
-                    name: name.clone(),
-                    known: scene.views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
-                })?
-            }
+            Some(name) => find_view(&scene, name)?,
             None => scene.views.first().cloned().ok_or_else(|| ViewerError::Other("the scene has no view".into()))?,
         };
         check_size(setup.width, setup.height)?;
@@ -427,12 +419,8 @@ impl Viewer {
 
     /// Moves the camera to the scene's view `name`.
     pub fn go_to_view(&mut self, name: &str) -> Result<(), ViewerError> {
-        let scene = self.scene();
-        let view = scene.views.iter().find(|v| v.name == name).cloned().ok_or_else(|| ViewerError::UnknownView {
-            name: name.into(),
-            known: scene.views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
-        })?;
-        let diagonal = scene.bounds().diagonal();
+        let view = find_view(self.scene(), name)?;
+        let diagonal = self.scene().bounds().diagonal();
         self.path = None;
         self.camera = FlyCamera::from_view(&view, diagonal);
         Ok(())
@@ -488,13 +476,16 @@ impl Viewer {
             }
         }
         let view = self.camera.view();
-        let signature = state_signature(&view, self.live().epoch());
+        self.renderer.set_view(&view);
+        let report = self.renderer.render()?;
+        // After the frame: a light still refining (a quality ladder, fills spread over frames)
+        // changes what is shown without any edit.
+        let levels = self.renderer.shadows.levels();
+        let signature = state_signature(&view, self.live().epoch(), self.size(), &levels);
         if signature != self.shown {
             self.shown = signature;
             self.state += 1;
         }
-        self.renderer.set_view(&view);
-        let report = self.renderer.render()?;
         let size = self.size();
         if let Some(ab) = &mut self.ab {
             let built = (self.renderer.shadows.live().epoch(), self.specs_version, size);
@@ -556,7 +547,9 @@ impl Viewer {
     /// The traced truth's heatmap of the frame shown and the selected light.
     fn error_heatmap(&self) -> Result<Vec<u8>, ViewerError> {
         #[cfg(feature = "truth")]
-        if let Some(t) = self.current_truth() {
+        if let Some(t) = self.current_truth()
+            && (t.width, t.height) == self.size()
+        {
             return Ok(t.heatmap.clone());
         }
         Err(ViewerError::Other(
@@ -709,21 +702,47 @@ impl Viewer {
         self.truth.as_ref().filter(|t| t.frame == self.state && t.light == self.selected_light)
     }
 
-    /// The `shadowlab render` command that reproduces this view and these settings (lights with
-    /// other techniques than the first light's are named in a comment: `render` takes one).
+    /// The `shadowlab render` command that reproduces this view with the selected light's
+    /// technique. `render` gives every light one technique (the baseline where it does not apply),
+    /// so lights set to others here are listed after a `#`: the command does not reproduce them.
     pub fn cli_command(&self) -> String {
         let v = self.camera.view();
         let (w, h) = self.size();
         let spec = self.specs.get(self.selected_light).map_or_else(|| "hard".into(), spec_text);
         let f = |p: Vec3| format!("{:.3},{:.3},{:.3}", p.x, p.y, p.z);
-        format!(
+        let mut command = format!(
             "shadowlab render --scene {} --size {w}x{h} --technique '{spec}' --camera {}:{}:{:.1} --out view.png",
             shell_word(&self.setup.scene),
             f(v.position),
             f(v.target),
             v.fov_y.to_degrees()
-        )
+        );
+        let selected = self.specs.get(self.selected_light);
+        // A light the selected technique does not take gets `hard` from `render` too.
+        let substituted =
+            |l: &shadowlab_core::Light, s: &str| s == "hard" && selected.is_some_and(|x| !x.info.supports(l));
+        let others: Vec<String> = self
+            .scene()
+            .lights
+            .iter()
+            .zip(&self.specs)
+            .map(|(l, s)| (l, spec_text(s)))
+            .filter(|(l, s)| *s != spec && !substituted(l, s))
+            .map(|(l, s)| format!("'{}' {s}", l.name))
+            .collect();
+        if !others.is_empty() {
+            command.push_str(&format!("  # not reproduced: {}", others.join(", ")));
+        }
+        command
     }
+}
+
+/// The scene's view `name`, or an error naming the views it has.
+fn find_view(scene: &Scene, name: &str) -> Result<shadowlab_core::View, ViewerError> {
+    scene.view(name).cloned().ok_or_else(|| ViewerError::UnknownView {
+        name: name.into(),
+        known: scene.views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
+    })
 }
 
 /// `ID` followed by the parameters that differ from their defaults (`pcf:kernel=5`).
@@ -740,15 +759,24 @@ pub fn spec_text(spec: &TechniqueSpec) -> String {
 /// The most map views the third-person view draws (64 samples of a cube make 384).
 const MAX_DRAWN_VIEWS: usize = 48;
 
-/// A hash of the camera and the scene's edit epoch.
-fn state_signature(view: &shadowlab_core::View, epoch: u64) -> u64 {
+/// A hash of what the frame shown depends on besides the techniques: the camera, the scene's edit
+/// epoch, the image size, and each light's quality level and whether it is current.
+fn state_signature(
+    view: &shadowlab_core::View,
+    epoch: u64,
+    size: (u32, u32),
+    levels: &[(LightId, u32, bool, u32)],
+) -> u64 {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
     for v in [view.position, view.target, view.up] {
         v.to_array().map(f32::to_bits).hash(&mut h);
     }
     [view.fov_y, view.near, view.far].map(f32::to_bits).hash(&mut h);
-    epoch.hash(&mut h);
+    (epoch, size).hash(&mut h);
+    for &(id, level, current, samples) in levels {
+        (id.0, level, current, samples).hash(&mut h);
+    }
     h.finish()
 }
 
@@ -765,9 +793,4 @@ fn check_size(width: u32, height: u32) -> Result<(), ViewerError> {
         return Err(ViewerError::Other(format!("image size {width}×{height}: each side must be in 16..=8192")));
     }
     Ok(())
-}
-
-/// The value a parameter widget shows, as text the parameter parses.
-pub fn value_text(value: &ParamValue) -> String {
-    value.to_string()
 }

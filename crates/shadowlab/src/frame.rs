@@ -193,6 +193,9 @@ pub struct SurfaceInputs {
     /// Changes whenever the surface may have: a new camera, or [`SurfaceInputs::touch`]. With the
     /// scene unchanged too, a light's visibility of the last frame still holds.
     generation: u64,
+    /// The depth buffer shows the scene's instances and nothing else (see
+    /// [`SurfaceInputs::set_shows_only_scene`]).
+    only_scene: bool,
 }
 
 /// Surface generations are unique across all surfaces.
@@ -212,7 +215,19 @@ impl SurfaceInputs {
         height: u32,
     ) -> Self {
         let camera_buffer = crate::util::uniform_buffer(device, "camera", bytemuck::bytes_of(&camera));
-        Self { width, height, depth, normal, camera, camera_buffer, generation: next_generation() }
+        Self { width, height, depth, normal, camera, camera_buffer, generation: next_generation(), only_scene: false }
+    }
+
+    /// Says that the depth buffer shows the scene's instances and nothing else (the `Renderer`'s
+    /// G-buffer does): every surface point then lies within the scene's bounds, and shadow volumes
+    /// skip the casters whose volumes reach no point there. Off by default, for applications
+    /// that draw things of their own into the depth buffer.
+    pub fn set_shows_only_scene(&mut self, only: bool) {
+        self.only_scene = only;
+    }
+
+    pub fn shows_only_scene(&self) -> bool {
+        self.only_scene
     }
 
     /// Updates the camera (after the application moved it).

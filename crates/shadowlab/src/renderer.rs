@@ -100,7 +100,9 @@ impl Targets {
         let hdr = target(device, "hdr", HDR_FORMAT, width, height, none);
         let output = target(device, "output", OUTPUT_FORMAT, width, height, wgpu::TextureUsages::COPY_SRC);
         let view_of = |t: &wgpu::Texture| t.create_view(&Default::default());
-        let surface = SurfaceInputs::new(device, view_of(&depth), view_of(&normal), camera, width, height);
+        let mut surface = SurfaceInputs::new(device, view_of(&depth), view_of(&normal), camera, width, height);
+        // The G-buffer draws the scene's instances and nothing else.
+        surface.set_shows_only_scene(true);
         let layouts = lighting_layouts(shared);
         let lighting_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lighting"),

@@ -1080,7 +1080,17 @@ impl ShadowTechnique for Volumes {
                         Some(rect) => {
                             let source = LightSource::of_sample(self.samples[i].sample);
                             let (casters, slots) = (&self.casters, &store.slot_of);
-                            in_region = plan::region_casters(plan, &camera, &source, casters, slots, rect, size);
+                            let extent = ctx.surface.shows_only_scene().then(|| ctx.live.surface_bounds());
+                            in_region = plan::region_casters(
+                                plan,
+                                &camera,
+                                &source,
+                                casters,
+                                slots,
+                                rect,
+                                size,
+                                extent.as_ref(),
+                            );
                             &in_region
                         }
                         None => &plan.casters,

@@ -5,9 +5,10 @@
 
 use glam::{Vec3, Vec4};
 use shadowlab_core::Aabb;
+use shadowlab_core::convex::{ConvexBody, Plane};
 use shadowlab_core::volumes::{
     LightSource, SphereRect, VolumeCamera, ZpPlus, box_volume_touches, crossings, sphere_volume_reaches_plane,
-    sphere_volume_touches,
+    sphere_volume_touches, volume_meets_body,
 };
 
 use super::geometry::{Caster, VolumeTopology};
@@ -222,10 +223,16 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
 
 /// The casters of `plan` whose volumes may reach the pixels `rect` (x, y, width, height) of a
 /// `width × height` surface: the plan's own culling (Hasselgren 2003 §3.3.1.2) against the
-/// frustum through that rectangle. A resolve limited to a region (a dragged object's footprint)
-/// counts only there, and a volume outside the region's frustum adds nothing to any count inside
-/// it, whichever the method: z-pass and ZP+ count between the near plane and the surface, z-fail
-/// behind the surface, all within the frustum.
+/// frustum through that rectangle and, when every surface point is known to lie in `extent`
+/// (the scene's bounds, `SurfaceInputs::shows_only_scene`), against that frustum cut by it. A
+/// resolve limited to a region (a dragged object's footprint) counts only there, and a caster
+/// whose volumes contain no surface point of the region adds nothing to any count there,
+/// whichever the method, as long as it is left out of every draw (caps and ZP+'s start
+/// included): along a pixel's ray z-pass and ZP+ count its volumes' faces between the near
+/// plane and the surface, z-fail behind the surface, and a closed volume that does not hold the
+/// surface point is entered as often as it is left there. Only the parity mode's robust z-pass,
+/// whose start was counted at the eye over the plan's casters, keeps the frustum test alone.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn region_casters(
     plan: &SamplePlan,
     camera: &VolumeCamera,
@@ -234,17 +241,46 @@ pub(super) fn region_casters(
     slots: &[u32],
     rect: [u32; 4],
     size: (u32, u32),
+    extent: Option<&Aabb>,
 ) -> Vec<Drawn> {
     let (w, h) = (size.0.max(1) as f32, size.1.max(1) as f32);
     let [x, y, rw, rh] = rect.map(|v| v as f32);
     let ndc = [2.0 * x / w - 1.0, 1.0 - 2.0 * (y + rh) / h, 2.0 * (x + rw) / w - 1.0, 1.0 - 2.0 * y / h];
     let planes = camera.planes(ndc);
+    let body = extent.filter(|_| !plan.robust).map(|e| surface_body(e, &planes));
     let mut reaches = vec![false; slots.iter().max().map_or(0, |&m| m as usize + 1)];
     for (c, &slot) in casters.iter().zip(slots) {
-        reaches[slot as usize] = planes.iter().all(|&pl| sphere_volume_reaches_plane(source, c.centre, c.radius, pl));
+        reaches[slot as usize] = planes.iter().all(|&pl| sphere_volume_reaches_plane(source, c.centre, c.radius, pl))
+            && body.as_ref().is_none_or(|b| {
+                volume_meets_body(source, &padded(&c.bounds), b)
+                    && (c.parts.is_empty() || c.parts.iter().any(|p| volume_meets_body(source, &padded(p), b)))
+            });
     }
     // A slot without a caster cannot happen; drawing it is the safe side.
     plan.casters.iter().copied().filter(|d| reaches.get(d.slot as usize).is_none_or(|&r| r)).collect()
+}
+
+/// The surface points a frustum (`planes`, inside `≥ 0`) can see within `extent`, a little
+/// larger than both for round-off.
+fn surface_body(extent: &Aabb, planes: &[Vec4; 5]) -> ConvexBody {
+    let mut body = ConvexBody::from_aabb(&padded(extent));
+    for pl in planes {
+        let n = pl.truncate();
+        // Moved outwards by a millionth of the extent's size.
+        let slack = 1e-6 * extent.diagonal().max(1.0) * n.length();
+        body = body.clip(&Plane { n, d: pl.w + slack });
+        if body.is_empty() {
+            break;
+        }
+    }
+    body
+}
+
+/// A box a little larger (relative and absolute margins), so that round-off in the culling tests
+/// never drops a caster that touches what it is tested against.
+fn padded(b: &Aabb) -> Aabb {
+    let e = Vec3::splat(1e-4 * b.diagonal() + 1e-5);
+    Aabb::new(b.min - e, b.max + e)
 }
 
 /// The union of the focus receivers' screen rectangles (bounding spheres), within `within` (NDC

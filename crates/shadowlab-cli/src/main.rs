@@ -34,6 +34,9 @@ enum Command {
     Reference(commands::reference::Args),
     /// Compare techniques with the ray-traced truth: metrics.json, images, report.html.
     Compare(commands::compare::Args),
+    /// Write the triangles the truth traces (the scene's local frame, one object per instance) as
+    /// .obj or .glb, with a .json of the lights and the ray-offset rule: for outside tracers.
+    Export(commands::export::Args),
     /// Time techniques: GPU ms per pass, CPU ms, memory, ratios over `hard`.
     Bench(commands::bench::Args),
     /// Measure, per light, each candidate technique's cost and error against the truth on the
@@ -61,6 +64,7 @@ fn main() {
         Command::Render(a) => commands::render::run(&cli.global, a),
         Command::Reference(a) => commands::reference::run(&cli.global, a),
         Command::Compare(a) => commands::compare::run(&cli.global, a),
+        Command::Export(a) => commands::export::run(&cli.global, a),
         Command::Bench(a) => commands::bench::run(&cli.global, a),
         Command::Calibrate(a) => commands::calibrate::run(&cli.global, a),
         Command::Analyze(a) => commands::analyze::run(&cli.global, a),

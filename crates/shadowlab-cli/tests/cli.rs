@@ -480,3 +480,35 @@ fn view_opens_the_viewer_window() {
     ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).contains("3 frames"));
 }
+
+/// `export` writes the geometry and its description (no GPU), and refuses what it cannot write.
+#[test]
+fn export_writes_the_traced_triangles_and_their_description() {
+    let dir = temp("export");
+    let obj = dir.join("room.obj");
+    ok(&shadowlab(&["export", "--scene", "room", "--lights", "sun", "--out", obj.to_str().unwrap()]));
+    let desc = json(&dir.join("room.json"));
+    let text = std::fs::read_to_string(&obj).unwrap();
+    let faces = text.lines().filter(|l| l.starts_with("f ")).count() as u64;
+    assert_eq!(desc["triangles"].as_u64(), Some(faces));
+    let per_instance: u64 =
+        desc["instances"].as_array().unwrap().iter().map(|i| i["triangles"].as_u64().unwrap()).sum();
+    assert_eq!(per_instance, faces);
+    // `--lights` chooses as in `reference`: the sun only, with its index in the scene.
+    let lights = desc["lights"].as_array().unwrap();
+    assert_eq!(lights.len(), 1);
+    assert_eq!((lights[0]["name"].as_str(), lights[0]["type"].as_str()), (Some("sun"), Some("directional")));
+    assert_eq!(lights[0]["index"].as_u64(), Some(3));
+    for key in ["scale", "ulps", "scene_diagonal"] {
+        assert!(desc["ray_offset"][key].is_number(), "ray_offset.{key}");
+    }
+    let glb = dir.join("room.glb");
+    ok(&shadowlab(&["export", "--scene", "room", "--out", glb.to_str().unwrap()]));
+    assert_eq!(&std::fs::read(&glb).unwrap()[0..4], b"glTF");
+    fails_with(
+        &["export", "--scene", "room", "--out", dir.join("room.stl").to_str().unwrap()],
+        "must end in .obj or .glb",
+    );
+    fails_with(&["export", "--scene", "no-such-scene", "--out", obj.to_str().unwrap()], "not a built-in scene");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -214,19 +214,26 @@ impl SceneBvh {
 }
 
 fn push_instance(scene: &Scene, index: usize, inst: &Instance, out: &mut Vec<WorldTriangle>) {
+    out.extend(instance_triangles(scene, inst).enumerate().map(|(k, v)| WorldTriangle {
+        v,
+        instance: index as u32,
+        triangle: k as u32,
+    }));
+}
+
+/// An instance's triangles in the scene's frame, exactly as the truth traces them (the same f32
+/// arithmetic; `shadowlab export` writes these): transformed corners, the winding kept front-facing
+/// under a mirroring transform.
+pub fn instance_triangles<'a>(scene: &'a Scene, inst: &Instance) -> impl Iterator<Item = [Vec3A; 3]> + 'a {
     let mesh = scene.mesh(inst.mesh);
     let t: Affine3A = inst.transform;
     // A mirroring transform reverses the winding; swap two corners to keep fronts in front.
     let mirror = t.matrix3.determinant() < 0.0;
     let world: Vec<Vec3A> = mesh.positions.iter().map(|&p| t.transform_point3a(p.into())).collect();
-    for (k, tri) in mesh.triangles.iter().enumerate() {
+    mesh.triangles.iter().map(move |tri| {
         let [a, b, c] = tri.map(|i| world[i as usize]);
-        out.push(WorldTriangle {
-            v: if mirror { [a, c, b] } else { [a, b, c] },
-            instance: index as u32,
-            triangle: k as u32,
-        });
-    }
+        if mirror { [a, c, b] } else { [a, b, c] }
+    })
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@ pub mod analyze;
 pub mod bench;
 pub mod calibrate;
 pub mod compare;
+pub mod export;
 pub mod inspect;
 pub mod play;
 pub mod precompute;

@@ -65,6 +65,9 @@ fn compare_writes_every_file_and_key() {
     for key in ["samples", "seed", "seconds", "noise_floor_rmse"] {
         assert!(m["reference"][key].is_number(), "reference.{key}");
     }
+    // The penumbra's panel is an area light: it takes the samples asked, and says so per light.
+    assert_eq!((m["reference"]["samples"].as_u64(), m["reference"]["samples_asked"].as_u64()), (Some(16), Some(16)));
+    assert_eq!(m["lights"][0]["samples"].as_u64(), Some(16));
     let techniques = m["techniques"].as_array().unwrap();
     let ids: Vec<&str> = techniques.iter().map(|t| t["id"].as_str().unwrap()).collect();
     assert_eq!(ids, ["none", "hard", "pcf", "sampled"]);
@@ -291,6 +294,30 @@ fn render_reference_and_bench_run() {
     {
         assert!(refdir.join(f).is_file(), "missing {f}");
     }
+    let summary = json(&refdir.join("reference.json"));
+    assert_eq!((summary["samples"].as_u64(), summary["samples_asked"].as_u64()), (Some(4), Some(4)), "{summary}");
+    // The same panel made hard (issue 19 item 6): one ray per pixel, reported as 1, whatever was asked.
+    let hard_dir = dir.join("ref-hard");
+    let out = shadowlab(&[
+        "reference",
+        "--scene",
+        "penumbra",
+        "--size",
+        "16x16",
+        "--samples",
+        "64",
+        "--emitter-scale",
+        "0",
+        "--out",
+        hard_dir.to_str().unwrap(),
+    ]);
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 ray per pixel (hard lights)"), "{out:?}");
+    let summary = json(&hard_dir.join("reference.json"));
+    assert_eq!((summary["samples"].as_u64(), summary["samples_asked"].as_u64()), (Some(1), Some(64)), "{summary}");
+    assert_eq!(summary["lights"][0]["samples"].as_u64(), Some(1));
+    // One ray for each relevant pixel, no more.
+    assert_eq!(summary["lights"][0]["rays"], summary["lights"][0]["relevant_pixels"], "{summary}");
     let bench = dir.join("bench.json");
     // `bench` on the penumbra at 32², two frames, with `techniques` flags; its stdout and JSON.
     let run_bench = |techniques: &[&str]| {

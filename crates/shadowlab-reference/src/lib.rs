@@ -27,4 +27,4 @@ pub mod visibility;
 pub use bvh::{SceneBvh, Selection};
 pub use metrics::{ErrorStats, Metrics};
 pub use surface::trace_surface;
-pub use visibility::{ReferenceResult, ReferenceSettings, Visibility, light_visibility, reference};
+pub use visibility::{ReferenceResult, ReferenceSettings, Visibility, light_visibility, reference, samples_for};

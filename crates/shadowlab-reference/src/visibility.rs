@@ -85,7 +85,7 @@ pub fn light_visibility(
     progress: Option<Progress<'_>>,
 ) -> Visibility {
     let start = Instant::now();
-    let samples = if light.is_hard() { 1 } else { settings.samples.max(1) };
+    let samples = samples_for(light, settings.samples);
     let width = surface.width as usize;
     let total = surface.len();
     let done = AtomicUsize::new(0);
@@ -129,6 +129,12 @@ pub fn light_visibility(
         rays: rays.into_inner(),
         seconds: start.elapsed().as_secs_f64(),
     }
+}
+
+/// Emitter samples per pixel the truth takes for `light` when `samples` are asked: one ray for a
+/// hard light (a point, a single direction: DESIGN.md §3's V ∈ {0, 1}), whatever was asked.
+pub fn samples_for(light: &Light, samples: u32) -> u32 {
+    if light.is_hard() { 1 } else { samples.max(1) }
 }
 
 /// Traces the shadow ray of one emitter sample `u` from `origin` (already offset along the

@@ -33,7 +33,8 @@ pub struct Args {
     scene: SceneArgs,
     #[command(flatten)]
     techniques: TechniqueArgs,
-    /// Reference emitter samples per pixel (area lights).
+    /// Reference emitter samples per pixel for area lights. A hard light (zero-size emitter, as with
+    /// `--emitter-scale 0`) needs and takes one ray per pixel whatever this says: its truth is exact.
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=65536))]
     samples: u32,
     /// Reference seed (the noise floor uses seed + 1).
@@ -104,8 +105,8 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         rmse_between(&a, &b)
     };
     eprintln!(
-        "reference: {} samples, {:.1} s, {:.1} M rays/s, noise floor RMSE {noise_floor:.4}",
-        args.samples,
+        "reference: {}, {:.1} s, {:.1} M rays/s, noise floor RMSE {noise_floor:.4}",
+        super::reference::samples_text(&lights, args.samples),
         truth.seconds,
         truth.rays_per_second() / 1e6
     );
@@ -249,12 +250,18 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
         "width": w, "height": h,
         "adapter": { "name": gpu.adapter.name, "backend": gpu.adapter.backend, "device_type": gpu.adapter.device_type },
         "reference": {
-            "samples": args.samples, "seed": args.seed, "seconds": truth.seconds,
+            // The most any light took (1 when every light is hard); `samples_asked`: `--samples`.
+            "samples": super::reference::used_samples(&lights, args.samples), "samples_asked": args.samples,
+            "seed": args.seed, "seconds": truth.seconds,
             "noise_floor_rmse": noise_floor, "rays_per_second": truth.rays_per_second(),
         },
         "emitter_scale": args.scene.emitter_scale,
         "origin": setup.scene.origin.to_array(),
-        "lights": refs.iter().map(|r| json!({"index": r.id.0, "name": r.name, "type": setup.scene.lights[r.id.index()].type_name()})).collect::<Vec<_>>(),
+        "lights": refs.iter().map(|r| {
+            let light = &setup.scene.lights[r.id.index()];
+            json!({"index": r.id.0, "name": r.name, "type": light.type_name(),
+                   "samples": shadowlab_reference::samples_for(light, args.samples)})
+        }).collect::<Vec<_>>(),
         "techniques": entries,
         "path": path_json,
     });
@@ -441,7 +448,7 @@ fn report_html(
     Ok(format!(
         "<!doctype html><html><head><meta charset=\"utf-8\"><title>shadowlab: {scene}/{view}</title><style>{style}</style></head><body>\
 <h1>shadowlab compare: {scene} / {view}</h1>\
-<p>{w}×{h} pixels · lights: {lights} · adapter: {adapter} ({backend}, {dtype}) · reference: {samples} samples, seed {seed}, {secs:.1} s · noise floor RMSE {noise:.4}</p>\
+<p>{w}×{h} pixels · lights: {lights} · adapter: {adapter} ({backend}, {dtype}) · reference: {samples}, seed {seed}, {secs:.1} s · noise floor RMSE {noise:.4}</p>\
 <h2>Which technique, at what cost, how wrong</h2>{table}\
 <p class=\"note\">Errors over relevant pixels (DESIGN.md §6): wrong = |V − V<sub>ref</sub>| &gt; 0.1; penumbra RMSE over the truth's penumbra, pixels where V<sub>ref</sub> is in (0.02, 0.98) (only V<sub>ref</sub> decides, so false faint shadows cannot dilute it); lit darkened = fraction with V<sub>ref</sub> = 1 and V &lt; 0.98 (acne, false shadows); shadow brightened = fraction with V<sub>ref</sub> = 0 and V &gt; 0.02 (light leaks); a missing V (NaN) counts as an error of 1; FLIP and image RMSE (Azri 2020's measure, over pixels with geometry) of the final image against the image lit with the reference visibility. Times are medians of {frames} frames after warm-up; ratios over <code>hard</code> hold across machines, absolute times do not (a CPU adapter is not a GPU).</p>\
 {auto}<h2>Quality against time</h2>{svg}\
@@ -457,7 +464,10 @@ fn report_html(
         adapter = report::escape(a["name"].as_str().unwrap_or("")),
         backend = a["backend"].as_str().unwrap_or(""),
         dtype = a["device_type"].as_str().unwrap_or(""),
-        samples = r["samples"],
+        samples = match r["samples"].as_u64() {
+            Some(1) => "1 ray per pixel (hard lights)".to_owned(),
+            n => format!("{} samples", n.unwrap_or(0)),
+        },
         seed = r["seed"],
         secs = r["seconds"].as_f64().unwrap_or(0.0),
         noise = r["noise_floor_rmse"].as_f64().unwrap_or(0.0),

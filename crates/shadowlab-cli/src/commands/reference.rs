@@ -12,8 +12,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use serde_json::json;
+use shadowlab_core::Light;
 use shadowlab_reference::images::{write_raw_f32, write_visibility_png};
-use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference, trace_surface};
+use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, reference, samples_for, trace_surface};
 
 use crate::args::{GlobalArgs, SceneArgs, slug};
 use crate::progress;
@@ -57,6 +58,7 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
         write_raw_f32(&stem, &v.values, w, h, 1, "reference visibility V in [0,1]; NaN = not relevant")?;
         light_entries.push(json!({
             "index": index, "name": light.name, "type": light.type_name(), "emitter": light.emitter_size_text(),
+            "samples": samples_for(light, args.samples),
             "relevant_pixels": v.relevant_pixels, "rays": v.rays, "seconds": v.seconds,
             "png": stem.with_extension("png").file_name().map(|f| f.to_string_lossy().into_owned()),
             "f32": stem.with_extension("f32").file_name().map(|f| f.to_string_lossy().into_owned()),
@@ -91,21 +93,40 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
     )?;
     let summary = json!({
         "scene": scene.name, "view": setup.view.name, "width": w, "height": h,
-        "samples": args.samples, "seed": args.seed, "origin": scene.origin.to_array(),
+        // The most any light took (1 when every light is hard); `samples_asked`: `--samples`.
+        "samples": used_samples(&lights, args.samples), "samples_asked": args.samples,
+        "seed": args.seed, "origin": scene.origin.to_array(),
         "seconds": result.seconds, "bvh_build_seconds": result.bvh_build.as_secs_f64(),
         "rays": result.rays, "rays_per_second": result.rays_per_second(),
         "triangles": casters.len(), "lights": light_entries,
     });
     std::fs::write(args.out.join("reference.json"), serde_json::to_string_pretty(&summary)?)?;
     println!(
-        "reference of {} light(s) on {}/{} at {w}x{h}, {} samples: {:.2} s, {:.2} M shadow rays/s → {}",
+        "reference of {} light(s) on {}/{} at {w}x{h}, {}: {:.2} s, {:.2} M shadow rays/s → {}",
         lights.len(),
         scene.name,
         setup.view.name,
-        args.samples,
+        samples_text(&lights, args.samples),
         result.seconds,
         result.rays_per_second() / 1e6,
         args.out.display()
     );
     Ok(())
+}
+
+/// The most emitter samples per pixel any of `lights` takes (hard lights take one ray).
+pub(crate) fn used_samples(lights: &[(u32, &Light)], samples: u32) -> u32 {
+    lights.iter().map(|&(_, l)| samples_for(l, samples)).max().unwrap_or(1)
+}
+
+/// "256 samples", "1 ray per pixel (hard lights)" or "256 samples (hard lights: 1 ray)".
+pub(crate) fn samples_text(lights: &[(u32, &Light)], samples: u32) -> String {
+    let hard = lights.iter().filter(|(_, l)| l.is_hard()).count();
+    if hard == lights.len() {
+        "1 ray per pixel (hard lights)".to_owned()
+    } else if hard > 0 {
+        format!("{samples} samples (hard lights: 1 ray)")
+    } else {
+        format!("{samples} samples")
+    }
 }

@@ -280,6 +280,12 @@ pub struct CascadeSettings {
     pub map_size: u32,
     /// A measured visible depth range (the automatic near plane) replacing the adjusted one.
     pub depth_range: Option<(f32, f32)>,
+    /// The nearest visible depth measured on the GPU (a frame late), for PSM's warp: PSM puts the
+    /// warp's centre at the near plane (n' = n), and the camera's near plane (0.5 m at street
+    /// level, where the nearest ground is 3 m away) makes it so strong that far texels cover
+    /// metres and thin lit objects shadow themselves. With the true near it is "very good"
+    /// (Stingl 2011 §4.3, Fig. 4.3); without one, PSM is held at LiSPSM's strength.
+    pub visible_near: Option<f32>,
 }
 
 /// One split's map.
@@ -291,6 +297,8 @@ pub struct Cascade {
     pub far: f32,
     /// The warp distance used (∞: not warped).
     pub warp_n: f32,
+    /// PSM had no measured near plane and was held at LiSPSM's strength (`visible_near`).
+    pub psm_limited: bool,
     /// The split's frustum does not meet the scene (its map is empty).
     pub empty: bool,
 }
@@ -477,6 +485,7 @@ fn directional_cascade(
     let (z_min, z_max) = (scene_ls.min.z.min(bounds.min.z), scene_ls.max.z.max(bounds.max.z));
 
     let mut warp_n = f32::INFINITY;
+    let mut psm_limited = false;
     let mut warp = Mat4::IDENTITY;
     if warping && !empty {
         let d = (bounds.max.y - bounds.min.y).max(1e-4);
@@ -491,7 +500,16 @@ fn directional_cascade(
         let theta = 0.5 * view.fov_y;
         warp_n = match s.warp {
             Warp::None => f32::INFINITY,
-            Warp::Psm => d * z0 / (z1 - z0),
+            Warp::Psm => match s.visible_near {
+                // n' = n with the nearest depth the split really shows.
+                Some(v) if z1 > v.max(z0) * (1.0 + 1e-4) => d * v.max(z0) / (z1 - v.max(z0)),
+                Some(_) => f32::INFINITY,
+                None => {
+                    let (psm, lispsm) = (d * z0 / (z1 - z0), n_opt(d, z0, z1));
+                    psm_limited = psm < lispsm;
+                    psm.max(lispsm)
+                }
+            },
             Warp::Lispsm if pn > 0.0 || pf > 0.0 => n_opt_pseudo(d, z0, z1, pn, pf),
             Warp::Lispsm => n_opt(d, z0, z1),
             Warp::Repar => n_repar(d, z0, z1, eta(gamma, theta)),
@@ -536,21 +554,37 @@ fn directional_cascade(
     } else {
         (max.x - min.x).max(max.y - min.y) / size
     };
+    // A warped map stores the light-space depth over the scene's column, not the warp's z/w (see
+    // `ShadowView::linear_depth`): reversed, 1 at the side towards the light. The splits of a warped
+    // technique that end up unwarped (the light along the view) store the same thing: their
+    // orthographic depth, which is affine already.
+    let view_projection = projection * light_view;
+    let (linear_depth, far_distance) = if warp_n.is_finite() {
+        let (lo, hi) = (z_min - 0.01 * (z_max - z_min), z_max + 0.01 * (z_max - z_min));
+        let row = (light_view.row(2) - Vec4::new(0.0, 0.0, 0.0, lo)) / (hi - lo).max(1e-9);
+        (Some(row), hi - lo)
+    } else if s.warp != Warp::None {
+        (Some(view_projection.row(2)), z_max - z_min)
+    } else {
+        (None, z_max - z_min)
+    };
     Cascade {
         view: ShadowView {
             view: light_view,
             projection,
-            view_projection: projection * light_view,
+            view_projection,
             eye,
             axis: light_dir,
             orthographic: true,
             near: 0.0,
-            far: z_max - z_min,
+            far: far_distance,
             texel_scale,
+            linear_depth,
         },
         near,
         far,
         warp_n,
+        psm_limited,
         empty,
     }
 }
@@ -613,6 +647,7 @@ fn spot_cascade(
         near,
         far,
         warp_n: f32::INFINITY,
+        psm_limited: false,
         empty,
     }
 }
@@ -746,7 +781,62 @@ mod tests {
             stabilize: false,
             map_size: 1024,
             depth_range: None,
+            visible_near: None,
         }
+    }
+
+    #[test]
+    fn psm_takes_the_visible_near_plane_or_lispsm_strength() {
+        let (light, scene, view) = terrain_like();
+        let aspect = 4.0 / 3.0;
+        let lispsm = compute_cascades(&light, &scene, &view, aspect, &settings(Warp::Lispsm, 1));
+        // Without a measured near plane PSM (n' = n = 0.5 m) would be far stronger than LiSPSM: held there.
+        let held = compute_cascades(&light, &scene, &view, aspect, &settings(Warp::Psm, 1));
+        assert!(held.cascades[0].psm_limited);
+        assert_eq!(held.cascades[0].warp_n, lispsm.cascades[0].warp_n);
+        // With the nearest visible depth (6 m) PSM's own n' = d·z0/(z1 − z0): stronger than LiSPSM
+        // and weaker than with the camera's near plane.
+        let measured = compute_cascades(
+            &light,
+            &scene,
+            &view,
+            aspect,
+            &CascadeSettings { visible_near: Some(6.0), ..settings(Warp::Psm, 1) },
+        );
+        let c = &measured.cascades[0];
+        assert!(!c.psm_limited);
+        assert!(c.warp_n < lispsm.cascades[0].warp_n, "{} vs {}", c.warp_n, lispsm.cascades[0].warp_n);
+        let unclamped = compute_cascades(
+            &light,
+            &scene,
+            &view,
+            aspect,
+            &CascadeSettings { visible_near: Some(0.0), ..settings(Warp::Psm, 1) },
+        );
+        assert!(unclamped.cascades[0].warp_n < c.warp_n);
+    }
+
+    #[test]
+    fn warped_maps_store_linear_depth_that_keeps_far_receivers_apart() {
+        let (light, scene, view) = terrain_like();
+        let frame = compute_cascades(
+            &light,
+            &scene,
+            &view,
+            4.0 / 3.0,
+            &CascadeSettings { visible_near: Some(0.0), ..settings(Warp::Psm, 1) },
+        );
+        let v = &frame.cascades[0].view;
+        assert!(v.linear_depth.is_some());
+        // Two points on one light ray 1 m apart, 900 m from the eye: their stored depths differ by
+        // 1 m over the scene's column (about 1/700 here), not by that divided by the warp's w.
+        let far = view.position + view.forward() * 900.0;
+        let (a, b) = (v.project(far), v.project(far + light.direction().unwrap()));
+        assert!((a.x - b.x).abs() < 1e-4 && (a.y - b.y).abs() < 1e-4, "{a} {b}");
+        assert!(a.z - b.z > 1e-3, "{} {}", a.z, b.z);
+        // Unwarped maps keep their projective (affine already) depth.
+        let plain = compute_cascades(&light, &scene, &view, 4.0 / 3.0, &settings(Warp::None, 1));
+        assert!(plain.cascades[0].view.linear_depth.is_none());
     }
 
     fn terrain_like() -> (Light, Aabb, View) {

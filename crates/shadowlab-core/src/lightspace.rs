@@ -73,6 +73,13 @@ pub struct ShadowView {
     /// World size of one texel: for orthographic views that size; for perspective views the size per
     /// unit of distance along `axis` (so the size at p is `texel_scale × (p − eye)·axis`).
     pub texel_scale: f32,
+    /// Warped maps (LiSPSM, PSM): the stored reversed-Z depth as an affine function of the world
+    /// position, `d = row · (p, 1)`, instead of the projective depth. A warp's projective depth
+    /// `z/w` packs the far half of a kilometre view into a sliver of the depth range (w runs from
+    /// the warp's near distance n to n + d, a ratio of thousands for PSM), below a float's step,
+    /// and lit ground then shadows itself in rows (issue 19 item 1). Light-space depth along the
+    /// light is affine in the world, so it interpolates exactly as a perspective-correct varying.
+    pub linear_depth: Option<Vec4>,
 }
 
 impl ShadowView {
@@ -109,6 +116,7 @@ impl ShadowView {
             near,
             far,
             texel_scale: width / map_size.max(1) as f32,
+            linear_depth: None,
         }
     }
 
@@ -121,7 +129,8 @@ impl ShadowView {
     pub fn project(&self, p: Vec3) -> Vec3 {
         let c = self.view_projection * p.extend(1.0);
         let ndc = c.truncate() / c.w;
-        Vec3::new(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y, ndc.z)
+        let z = self.linear_depth.map_or(ndc.z, |row| row.dot(p.extend(1.0)));
+        Vec3::new(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y, z)
     }
 }
 
@@ -253,6 +262,7 @@ pub fn directional_frustum(direction: Vec3, bounds: &Aabb, map_size: u32) -> Lig
             near,
             far,
             texel_scale: (r - l).max(t - b) / map_size.max(1) as f32,
+            linear_depth: None,
         }],
         cube: false,
     }
@@ -396,6 +406,7 @@ fn focused_directional_with(direction: Vec3, scene: &Aabb, points: &[Vec3], map_
         near,
         far,
         texel_scale: (r - l).max(t - b) / map_size.max(1) as f32,
+        linear_depth: None,
     }
 }
 

@@ -48,7 +48,11 @@ impl LightMap {
             mode: Vec4::new(if linear { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0),
         };
         let params = crate::util::uniform_buffer(&shared.gpu.device, "map params", bytemuck::bytes_of(&bias));
-        let raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
+        let raster = Raster {
+            faces: FaceMode::parse(p.choice("faces")),
+            slope_bias: p.float("slope_bias") as f32,
+            linear_depth: false,
+        };
         Self {
             maps: None,
             frusta: LightFrusta { views: Vec::new(), cube: false },
@@ -75,7 +79,11 @@ impl LightMap {
     /// changes are re-rendered then).
     pub fn set_params(&mut self, shared: &Shared, p: &ParamSet, linear: bool) {
         debug_assert!(self.fits(p));
-        self.raster = Raster { faces: FaceMode::parse(p.choice("faces")), slope_bias: p.float("slope_bias") as f32 };
+        self.raster = Raster {
+            faces: FaceMode::parse(p.choice("faces")),
+            slope_bias: p.float("slope_bias") as f32,
+            linear_depth: false,
+        };
         self.bias.values.x = p.float("normal_offset") as f32;
         self.bias.values.y = p.float("constant_bias") as f32;
         self.bias.mode.x = if linear { 1.0 } else { 0.0 };

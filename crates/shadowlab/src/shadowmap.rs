@@ -23,8 +23,10 @@ pub struct ShadowViewUniform {
     pub eye: [f32; 4],
     pub axis: [f32; 4],
     /// x, y: the view's near and far distances (to turn stored depths back into distances); z: the
-    /// texture layer that holds its map.
+    /// texture layer that holds its map; w: 1 when the map stores `depth · (p, 1)` (a warped map's
+    /// linear depth, `ShadowView::linear_depth`) instead of the projected depth.
     pub range: [f32; 4],
+    pub depth: [f32; 4],
 }
 
 impl ShadowViewUniform {
@@ -34,7 +36,8 @@ impl ShadowViewUniform {
             view_proj: v.view_projection.to_cols_array_2d(),
             eye: v.eye.extend(if v.orthographic { 1.0 } else { 0.0 }).into(),
             axis: v.axis.extend(v.texel_scale).into(),
-            range: [v.near, v.far, layer as f32, 0.0],
+            range: [v.near, v.far, layer as f32, if v.linear_depth.is_some() { 1.0 } else { 0.0 }],
+            depth: v.linear_depth.unwrap_or(Vec4::ZERO).into(),
         }
     }
 }
@@ -66,6 +69,9 @@ pub struct Raster {
     /// Slope-scaled depth bias (in units of the primitive's depth slope), pushing stored depths
     /// away from the light.
     pub slope_bias: f32,
+    /// Store each view's `ShadowView::linear_depth` (warped maps), written by the fragment shader
+    /// with the slope bias applied there, instead of the rasterised projective depth.
+    pub linear_depth: bool,
 }
 
 /// Parameters shared by `hard`, `pcf` and the other map techniques (see [`map_params!`](crate::map_params)).
@@ -114,9 +120,11 @@ pub struct ShadowMapArray {
     layer_views: Vec<wgpu::TextureView>,
     pub size: u32,
     pub layers: u32,
-    /// View matrices for rendering, one 256-byte-aligned slot per view.
+    /// View matrices for rendering, one 256-byte-aligned slot per view ([`RenderView`]).
     matrices: wgpu::Buffer,
     matrices_group: wgpu::BindGroup,
+    /// The same slots with their linear-depth rows, for maps that store linear depth.
+    linear_group: wgpu::BindGroup,
     stride: u64,
     /// `array<ShadowView>` for lookups.
     pub views: wgpu::Buffer,
@@ -156,7 +164,8 @@ impl ShadowMapArray {
                 })
             })
             .collect();
-        let stride = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(64);
+        let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(16);
+        let stride = (std::mem::size_of::<RenderView>() as u64).div_ceil(align) * align;
         let matrices = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("shadow view matrices"),
             size: stride * u64::from(capacity.max(1)),
@@ -176,13 +185,37 @@ impl ShadowMapArray {
                 }),
             }],
         });
+        let linear_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shadow view matrices (linear depth)"),
+            layout: &linear_matrices_layout(shared),
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &matrices,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(std::mem::size_of::<RenderView>() as u64),
+                }),
+            }],
+        });
         let views = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("shadow views"),
             size: (std::mem::size_of::<ShadowViewUniform>() as u64) * u64::from(capacity.max(1)),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Self { texture, array_view, layer_views, size, layers, matrices, matrices_group, stride, views, capacity }
+        Self {
+            texture,
+            array_view,
+            layer_views,
+            size,
+            layers,
+            matrices,
+            matrices_group,
+            linear_group,
+            stride,
+            views,
+            capacity,
+        }
     }
 
     /// Copies layer `from` into layer `to` (a cached static map under its composite copy).
@@ -222,6 +255,7 @@ impl ShadowMapArray {
         // Keep the old buffers: they hold the views already written.
         bigger.matrices = self.matrices;
         bigger.matrices_group = self.matrices_group;
+        bigger.linear_group = self.linear_group;
         bigger.views = self.views;
         bigger
     }
@@ -243,7 +277,7 @@ impl ShadowMapArray {
     pub fn set_views_in(&self, queue: &wgpu::Queue, first: u32, views: &[ShadowView], layers: &[u32]) {
         for (i, v) in views.iter().enumerate() {
             let slot = u64::from(first) + i as u64;
-            queue.write_buffer(&self.matrices, slot * self.stride, bytemuck::bytes_of(&v.view_projection));
+            queue.write_buffer(&self.matrices, slot * self.stride, bytemuck::bytes_of(&RenderView::new(v)));
         }
         let data: Vec<ShadowViewUniform> =
             views.iter().zip(layers).map(|(v, &layer)| ShadowViewUniform::new(v, layer)).collect();
@@ -259,7 +293,7 @@ impl ShadowMapArray {
     pub fn set_render_views(&self, queue: &wgpu::Queue, first: u32, views: &[ShadowView]) {
         for (i, v) in views.iter().enumerate() {
             let slot = u64::from(first) + i as u64;
-            queue.write_buffer(&self.matrices, slot * self.stride, bytemuck::bytes_of(&v.view_projection));
+            queue.write_buffer(&self.matrices, slot * self.stride, bytemuck::bytes_of(&RenderView::new(v)));
         }
     }
 
@@ -307,14 +341,15 @@ impl ShadowMapArray {
             multiview_mask: None,
         });
         ctx.gpu_scene.bind(&mut pass);
-        pass.set_bind_group(0, Some(&self.matrices_group), &[(u64::from(slot) * self.stride) as u32]);
+        let group = if raster.linear_depth { &self.linear_group } else { &self.matrices_group };
+        pass.set_bind_group(0, Some(group), &[(u64::from(slot) * self.stride) as u32]);
         let mut draws = 0;
         let mut current: Option<(wgpu::Face, bool, bool)> = None;
         for g in ctx.gpu_scene.casters(classes) {
             let cull = cull_mode(g, raster.faces);
             let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored);
             if current != Some(key) {
-                pass.set_pipeline(&depth_pipeline(ctx.shared, cull, g.mirrored, raster.slope_bias));
+                pass.set_pipeline(&depth_pipeline(ctx.shared, cull, g.mirrored, raster));
                 current = Some(key);
             }
             ctx.gpu_scene.draw(&mut pass, std::iter::once(g));
@@ -344,6 +379,44 @@ fn cull_mode(g: &DrawGroup, faces: FaceMode) -> Option<wgpu::Face> {
     }
 }
 
+/// What a depth pass reads of its view (`shaders/shadow_depth_linear.wgsl`; the plain depth pass
+/// reads the matrix only).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct RenderView {
+    view_projection: [[f32; 4]; 4],
+    /// `ShadowView::linear_depth` (zero when the view has none).
+    depth: [f32; 4],
+}
+
+impl RenderView {
+    fn new(v: &ShadowView) -> Self {
+        Self {
+            view_projection: v.view_projection.to_cols_array_2d(),
+            depth: v.linear_depth.unwrap_or(Vec4::ZERO).into(),
+        }
+    }
+}
+
+/// Group 0 of linear-depth passes: a view's matrix and depth row per layer, by dynamic offset.
+fn linear_matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("shadow view matrices (linear depth)", || {
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shadow view matrices (linear depth)"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: std::num::NonZeroU64::new(std::mem::size_of::<RenderView>() as u64),
+                },
+                count: None,
+            }],
+        })
+    })
+}
+
 /// Group 0 of depth-only passes: one view-projection matrix per layer, by dynamic offset.
 pub(crate) fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("shadow view matrices", || {
@@ -363,12 +436,23 @@ pub(crate) fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     })
 }
 
-fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, slope_bias: f32) -> wgpu::RenderPipeline {
-    let key = format!("shadow depth {cull:?} mirrored={mirrored} slope={}", slope_bias.to_bits());
+fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, raster: &Raster) -> wgpu::RenderPipeline {
+    let (slope_bias, linear) = (raster.slope_bias, raster.linear_depth);
+    let key = format!("shadow depth {cull:?} mirrored={mirrored} slope={} linear={linear}", slope_bias.to_bits());
     shared.render_pipeline(&key, || {
         let device = &shared.gpu.device;
-        let module = crate::shader::module(device, "shadow depth", include_str!("shaders/shadow_depth.wgsl"));
-        let layout = matrices_layout(shared);
+        let (module, layout) = if linear {
+            let source = include_str!("shaders/shadow_depth_linear.wgsl");
+            (crate::shader::module(device, "shadow depth (linear)", source), linear_matrices_layout(shared))
+        } else {
+            (
+                crate::shader::module(device, "shadow depth", include_str!("shaders/shadow_depth.wgsl")),
+                matrices_layout(shared),
+            )
+        };
+        // The linear shader applies the slope bias to the depth it writes (a written depth takes
+        // no raster bias).
+        let constants = [("slope_bias", f64::from(slope_bias))];
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("shadow depth"),
             bind_group_layouts: &[Some(&layout)],
@@ -394,10 +478,19 @@ fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, slo
                 depth_compare: Some(wgpu::CompareFunction::Greater),
                 stencil: Default::default(),
                 // Reversed Z: a negative bias pushes stored depths away from the light.
-                bias: wgpu::DepthBiasState { constant: 0, slope_scale: -slope_bias, clamp: 0.0 },
+                bias: wgpu::DepthBiasState {
+                    constant: 0,
+                    slope_scale: if linear { 0.0 } else { -slope_bias },
+                    clamp: 0.0,
+                },
             }),
             multisample: Default::default(),
-            fragment: None,
+            fragment: linear.then(|| wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                targets: &[],
+            }),
             multiview_mask: None,
             cache: None,
         })

@@ -38,8 +38,8 @@ fn focusing_warping_and_splitting_lower_the_error() {
             steps.iter().zip(&w).map(|(s, x)| format!("{s} {:.3}%", 100.0 * x)).collect::<Vec<_>>().join(", ")
         );
         // Focusing beats the unfocused map, LiSPSM beats focusing, and the full combination beats
-        // the plain map by far (measured at 160²: ground 0.85 → 0.70 → 0.36 → 0.31 → 0.26%, duel
-        // 11.4 → 8.4 → 0.35 → 2.5 → 0.51%; see the README for why PSSM alone loses in the duel view).
+        // the plain map by far (measured at 160²: ground 0.72 → 0.57 → 0.22 → 0.18 → 0.13%, duel
+        // 11.4 → 8.4 → 0.36 → 2.5 → 0.51%; see the README for why PSSM alone loses in the duel view).
         assert!(w[1] < w[0], "{view}: focusing {} vs hard {}", w[1], w[0]);
         assert!(w[2] < w[1], "{view}: LiSPSM {} vs focused {}", w[2], w[1]);
         assert!(w[4] < 0.5 * w[0], "{view}: PSSM(4)+LiSPSM {} vs hard {}", w[4], w[0]);

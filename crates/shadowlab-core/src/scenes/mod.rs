@@ -6,7 +6,9 @@
 //! | `penumbra` | the analytic case: a square over a plane under a square light, closed-form truth |
 //! | `columns` | three rooms with pillars and doorways, four point lights, dynamic objects (`movers=N` more) |
 //! | `terrain` | 800 m of terrain under a directional light: the long-view, perspective-aliasing case |
+//! | `city` | a 2 km city seen from street level under a hard sun: kilometre depth ranges, thin poles |
 
+mod city;
 mod columns;
 pub mod penumbra;
 mod room;
@@ -41,6 +43,7 @@ static BUILTIN: &[BuiltinScene] = &[
     BuiltinScene { name: "penumbra", summary: penumbra::SUMMARY, options: penumbra::OPTIONS, build: penumbra::build },
     BuiltinScene { name: "columns", summary: columns::SUMMARY, options: columns::OPTIONS, build: columns::build },
     BuiltinScene { name: "terrain", summary: terrain::SUMMARY, options: terrain::OPTIONS, build: terrain::build },
+    BuiltinScene { name: "city", summary: city::SUMMARY, options: city::OPTIONS, build: city::build },
 ];
 
 /// All built-in scenes, in listing order.

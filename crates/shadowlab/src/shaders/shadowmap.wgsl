@@ -8,8 +8,10 @@ struct ShadowView {
     // xyz: unit axis; w: texel scale (world size of a texel, per unit distance for perspective views).
     axis: vec4<f32>,
     // x, y: near and far distances along the axis; z: the texture layer that holds the view's map
-    // (views may share layers, or switch between a cached static map and its composite copy).
+    // (views may share layers, or switch between a cached static map and its composite copy);
+    // w: 1 when the map stores the linear depth dot(depth, (p, 1)) (a warped map).
     range: vec4<f32>,
+    depth: vec4<f32>,
 };
 
 // The cube face of a direction, in the layer order +X, −X, +Y, −Y, +Z, −Z.
@@ -28,7 +30,8 @@ fn cube_face(d: vec3<f32>) -> u32 {
 fn shadow_project(v: ShadowView, p: vec3<f32>) -> vec3<f32> {
     let c = v.view_proj * vec4<f32>(p, 1.0);
     let ndc = c.xyz / c.w;
-    return vec3<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y, ndc.z);
+    let z = select(ndc.z, dot(v.depth, vec4<f32>(p, 1.0)), v.range.w > 0.5);
+    return vec3<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y, z);
 }
 
 // The distance along the view's axis of a point stored at reversed-Z depth z (inverting

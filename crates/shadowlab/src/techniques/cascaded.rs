@@ -109,6 +109,7 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
             stabilize: false,
             map_size: params.int("map_size") as u32,
             depth_range: None,
+            visible_near: None,
         });
     }
     let warp = Warp::parse(params.choice("warp"), params.float("warp_strength") as f32)
@@ -135,6 +136,7 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
         stabilize: params.bool("stabilize"),
         map_size: params.int("map_size") as u32,
         depth_range: None,
+        visible_near: None,
     })
 }
 
@@ -154,7 +156,9 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         &[&lookup_layout(shared), &kernel::layout(shared), &selection_layout(shared)],
         &[],
     );
-    let depth_range = params.bool("auto_near").then(|| DepthRange::new(shared));
+    // PSM needs the visible near plane for its warp (CascadeSettings::visible_near), auto_near for
+    // the split range.
+    let depth_range = (params.bool("auto_near") || settings.warp == Warp::Psm).then(|| DepthRange::new(shared));
     Ok(Box::new(Cascaded {
         params: params.clone(),
         settings,
@@ -206,6 +210,8 @@ impl Cascaded {
             raster: Raster {
                 faces: FaceMode::parse(self.params.choice("faces")),
                 slope_bias: self.params.float("slope_bias") as f32,
+                // Warped splits store linear depth (ShadowView::linear_depth).
+                linear_depth: self.settings.warp != Warp::None,
             },
             lookup,
             selection,
@@ -229,6 +235,12 @@ impl Cascaded {
                 out.push((format!("split{i}_far"), f64::from(c.far)));
                 if c.warp_n.is_finite() {
                     out.push((format!("split{i}_warp_n"), f64::from(c.warp_n)));
+                } else if self.settings.warp != Warp::None {
+                    // Warping was asked, but the split's n degenerated (the light along the view).
+                    out.push((format!("split{i}_unwarped"), 1.0));
+                }
+                if c.psm_limited {
+                    out.push((format!("split{i}_psm_limited"), 1.0));
                 }
             }
         }
@@ -256,7 +268,10 @@ impl ShadowTechnique for Cascaded {
         if let Some(dr) = &mut self.depth_range {
             dr.poll(&ctx.gpu.device);
             if let Some((range, frame)) = dr.latest() {
-                settings.depth_range = Some(range);
+                if self.params.bool("auto_near") {
+                    settings.depth_range = Some(range);
+                }
+                settings.visible_near = Some(range.0);
                 self.latency = Some(ctx.frame_index.saturating_sub(frame));
             }
         }

@@ -145,8 +145,11 @@ impl CascadeMaps {
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
     let (accumulate, finish) = sample_pipelines(shared, "cssm", include_str!("cssm.wgsl"));
-    let raster =
-        Raster { faces: FaceMode::parse(params.choice("faces")), slope_bias: params.float("slope_bias") as f32 };
+    let raster = Raster {
+        faces: FaceMode::parse(params.choice("faces")),
+        slope_bias: params.float("slope_bias") as f32,
+        linear_depth: false,
+    };
     Ok(Box::new(Cssm {
         params: params.clone(),
         accumulate,

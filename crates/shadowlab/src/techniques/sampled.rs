@@ -156,6 +156,7 @@ impl Sampled {
             raster: Raster {
                 faces: FaceMode::parse(self.params.choice("faces")),
                 slope_bias: self.params.float("slope_bias") as f32,
+                linear_depth: false,
             },
             accum_bytes: accum.size(),
             size: (w, h),

@@ -249,7 +249,7 @@ fn listings_are_json() {
     ok(&out);
     let scenes: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let names: Vec<&str> = scenes.as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
-    assert_eq!(names, ["room", "penumbra", "columns", "terrain"]);
+    assert_eq!(names, ["room", "penumbra", "columns", "terrain", "city"]);
     assert!(scenes[0]["triangles"].as_u64().unwrap() > 20_000);
     let out = shadowlab(&["techniques", "--json"]);
     ok(&out);

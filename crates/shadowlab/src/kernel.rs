@@ -15,6 +15,10 @@ pub const KERNEL: ParamDef = ParamDef::choice("kernel", "poisson", &["box", "poi
 pub const TAPS: ParamDef = ParamDef::int("taps", 16, 1, 64, "number of taps (box: rounded to N×N)");
 pub const RADIUS: ParamDef = ParamDef::float("radius", 1.5, 0.0, 64.0, "kernel radius");
 pub const RADIUS_UNIT: ParamDef = ParamDef::choice("radius_unit", "texels", &["texels", "world"], "unit of the radius");
+/// The blur's bound in screen pixels: where a map's texels cover many pixels (near the eye, or on
+/// ground the light grazes), a kernel of 1.5 texels spreads each edge over metres of lit surface.
+pub const MAX_BLUR: ParamDef =
+    ParamDef::float("max_blur", 1.0, 0.0, 64.0, "largest blur in screen pixels where texels are larger (0: none)");
 
 /// The kernel uniform of `pcfkernel.wgsl`.
 #[repr(C)]
@@ -22,6 +26,8 @@ pub const RADIUS_UNIT: ParamDef = ParamDef::choice("radius_unit", "texels", &["t
 pub struct KernelUniform {
     pub params: [f32; 4],
     pub taps: [[f32; 4]; MAX_TAPS],
+    /// x: the largest blur in screen pixels (0: unbounded).
+    pub limits: [f32; 4],
 }
 
 /// A progressive Poisson-disk sequence in the unit disk by Mitchell's best-candidate algorithm
@@ -63,8 +69,9 @@ pub fn box_kernel(taps: usize) -> Vec<Vec2> {
         .collect()
 }
 
-/// A kernel: `kind` is `box`, `poisson`, `rotated` (rotated Poisson) or `none` (one central tap).
-pub fn kernel_uniform(kind: &str, taps: usize, radius: f32, world_units: bool) -> KernelUniform {
+/// A kernel: `kind` is `box`, `poisson`, `rotated` (rotated Poisson) or `none` (one central tap);
+/// `max_blur` bounds its blur in screen pixels (0: unbounded).
+pub fn kernel_uniform(kind: &str, taps: usize, radius: f32, world_units: bool, max_blur: f32) -> KernelUniform {
     let offsets = match kind {
         "box" => box_kernel(taps),
         "none" => vec![Vec2::ZERO],
@@ -78,6 +85,7 @@ pub fn kernel_uniform(kind: &str, taps: usize, radius: f32, world_units: bool) -
             if kind == "rotated" { 1.0 } else { 0.0 },
         ],
         taps: [[0.0; 4]; MAX_TAPS],
+        limits: [max_blur, 0.0, 0.0, 0.0],
     };
     for (t, o) in k.taps.iter_mut().zip(&offsets) {
         *t = [o.x, o.y, 0.0, 0.0];
@@ -85,13 +93,14 @@ pub fn kernel_uniform(kind: &str, taps: usize, radius: f32, world_units: bool) -
     k
 }
 
-/// A kernel from a technique's `kernel`, `taps`, `radius` and `radius_unit` parameters.
+/// A kernel from a technique's `kernel`, `taps`, `radius`, `radius_unit` and `max_blur` parameters.
 pub fn from_params(p: &ParamSet) -> KernelUniform {
     kernel_uniform(
         p.choice("kernel"),
         p.int("taps") as usize,
         p.float("radius") as f32,
         p.choice("radius_unit") == "world",
+        p.float("max_blur") as f32,
     )
 }
 
@@ -136,6 +145,6 @@ mod tests {
             }
         }
         assert_eq!(poisson_disk(16), p, "deterministic");
-        assert_eq!(kernel_uniform("none", 16, 2.0, false).params[0], 1.0);
+        assert_eq!(kernel_uniform("none", 16, 2.0, false, 1.0).params[0], 1.0);
     }
 }

@@ -18,6 +18,9 @@ struct Street {
     truth: Vec<f32>,
     /// Relevant pixels farther than two pixels from any edge of the truth's shadows.
     away_from_edges: Vec<bool>,
+    /// The truth averaged over 4 × 4 samples of each pixel's area: a pole's shadow thinner than a
+    /// pixel, which the pixel-centre truth misses, covers part of a pixel here.
+    area_truth: Vec<f32>,
 }
 
 impl Street {
@@ -30,7 +33,7 @@ impl Street {
         let surface = renderer.read_surface().unwrap();
         let truth = reference(&scene, &surface, LightId(0), 1);
         let away_from_edges = away_from_edges(&truth, 2);
-        Self { renderer, truth, away_from_edges }
+        Self { renderer, truth, away_from_edges, area_truth: area_truth(&scene, &view) }
     }
 
     fn visibility(&mut self, spec: &str) -> Vec<f32> {
@@ -49,6 +52,31 @@ impl Street {
             ErrorStats::compare(&v, &self.truth).wrong_frac(),
         )
     }
+}
+
+/// The truth at 4 × 4 points of each pixel, averaged over the points that see geometry (NaN where
+/// none does).
+fn area_truth(scene: &Scene, view: &shadowlab_core::View) -> Vec<f32> {
+    const S: u32 = 4;
+    let mut fine = Renderer::new(&gpu(), scene.clone(), view, W * S, H * S);
+    fine.render().unwrap();
+    let t = reference(scene, &fine.read_surface().unwrap(), LightId(0), 1);
+    (0..W * H)
+        .map(|i| {
+            let (x, y) = (i % W, i / W);
+            let (mut sum, mut n) = (0.0, 0);
+            for dy in 0..S {
+                for dx in 0..S {
+                    let v = t[((y * S + dy) * W * S + x * S + dx) as usize];
+                    if !v.is_nan() {
+                        sum += v;
+                        n += 1;
+                    }
+                }
+            }
+            if n == 0 { f32::NAN } else { sum / n as f32 }
+        })
+        .collect()
 }
 
 /// Relevant pixels whose (2r + 1)² neighbourhood holds no other truth value than their own: a
@@ -100,6 +128,73 @@ fn warps_never_make_a_map_worse() {
                 if w > base + 0.001 || all > base_all + 0.001 {
                     failures.push(format!("{elevation}°: {spec} {w} / {all} vs unwarped {base} / {base_all}"));
                 }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+impl Street {
+    /// Pixels fully lit over their whole area (every one of the area truth's 4 × 4 samples), with
+    /// no pixel within two that is not, that `spec` darkens below 0.98, as a fraction of those
+    /// pixels; and the wrong fraction over all relevant pixels against the pixel-centre truth.
+    fn acne(&mut self, spec: &str) -> (f64, f64) {
+        let v = self.visibility(spec);
+        let area = &self.area_truth;
+        let lit_at = |x: i32, y: i32| -> bool {
+            x < 0 || y < 0 || x >= W as i32 || y >= H as i32 || {
+                let a = area[(y * W as i32 + x) as usize];
+                a.is_nan() || a >= 1.0
+            }
+        };
+        let lit: Vec<bool> = (0..area.len())
+            .map(|i| {
+                let (x, y) = ((i as u32 % W) as i32, (i as u32 / W) as i32);
+                !area[i].is_nan() && (-2..=2).all(|dy| (-2..=2).all(|dx| lit_at(x + dx, y + dy)))
+            })
+            .collect();
+        let count = lit.iter().filter(|&&m| m).count().max(1);
+        let darkened = v.iter().zip(&lit).filter(|&(&v, &m)| m && (v.is_nan() || v < 0.98)).count();
+        (darkened as f64 / count as f64, ErrorStats::compare(&v, &self.truth).wrong_frac())
+    }
+}
+
+/// Issue 19 item 3: filters leave lit streets lit. Every `pcf` kernel and every `kernel=` of
+/// `cascaded` (one map and four splits), at its defaults, darkens at most 0.1% of the pixels lit
+/// over their whole area away from shadow edges, under a 35° and an 8° sun.
+#[test]
+fn filters_leave_lit_streets_lit() {
+    let filtered = [
+        ("hard", "pcf"),
+        ("hard", "pcf:kernel=box"),
+        ("hard", "pcf:kernel=rotated"),
+        ("cascaded", "cascaded:kernel=box"),
+        ("cascaded", "cascaded:kernel=poisson"),
+        ("cascaded", "cascaded:kernel=rotated"),
+        ("cascaded:splits=4", "cascaded:splits=4,kernel=box"),
+        ("cascaded:splits=4", "cascaded:splits=4,kernel=poisson"),
+        ("cascaded:splits=4", "cascaded:splits=4,kernel=rotated"),
+    ];
+    let mut failures = Vec::new();
+    for elevation in [35.0, 8.0] {
+        let mut street = Street::new(elevation);
+        for (plain, spec) in filtered {
+            let (base, base_all) = street.acne(plain);
+            let (dark, all) = street.acne(spec);
+            println!(
+                "{elevation}°: {spec}: {:.3}% of lit pixels darkened ({plain}: {:.3}%), {:.3}% wrong in all ({:.3}%)",
+                100.0 * dark,
+                100.0 * base,
+                100.0 * all,
+                100.0 * base_all
+            );
+            // The issue's bound, 0.1% of lit pixels. Measured at most 0.076% (one map with any
+            // kernel at 35°; the unfiltered lookups 0.000–0.024%). Before the blur was bounded in
+            // screen pixels (`max_blur`) and taps allowed for creases (`crease_slope`): pcf 2.6%
+            // at 35° and 20% at 8° (kernel=box 32%), one map with Poisson 17% at 8°; without the
+            // crease bias, one map with a box kernel 0.165% at 8°.
+            if dark > 0.001 {
+                failures.push(format!("{elevation}°: {spec} darkens {dark} of lit pixels ({plain}: {base})"));
             }
         }
     }

@@ -32,6 +32,29 @@ fn world_from_depth(cam: Camera, pixel: vec2<u32>, depth: f32) -> vec3<f32> {
     return cam.position.xyz + h.xyz / h.w;
 }
 
+// The point, relative to the eye, on the ray through NDC `ndc` at depth-buffer value `depth`.
+fn eye_relative(cam: Camera, ndc: vec2<f32>, depth: f32) -> vec3<f32> {
+    let h = cam.inv_view_proj_rel * vec4<f32>(ndc, depth, 1.0);
+    return h.xyz / h.w;
+}
+
+// Where the ray through the centre of `pixel` moved by `d` pixels meets the plane through p with
+// normal n; the point on that ray at depth-buffer value `depth` where ray and plane are parallel.
+// (The neighbour's surface point on the pixel's plane: how far apart a pixel's samples lie there.)
+fn pixel_on_plane(cam: Camera, pixel: vec2<u32>, d: vec2<f32>, depth: f32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let uv = (vec2<f32>(pixel) + vec2<f32>(0.5) + d) * cam.size.zw;
+    let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+    let a = eye_relative(cam, ndc, depth);
+    // A second point of the ray, halfway to the background's depth (finite for either Z).
+    let dir = eye_relative(cam, ndc, mix(depth, cam.depth.x, 0.5)) - a;
+    let den = dot(dir, n);
+    let rel = p - cam.position.xyz;
+    if (abs(den) < 1.0e-6 * length(dir)) {
+        return cam.position.xyz + a;
+    }
+    return cam.position.xyz + a + dir * (dot(rel - a, n) / den);
+}
+
 fn is_background(cam: Camera, depth: f32) -> bool {
     return depth == cam.depth.x;
 }

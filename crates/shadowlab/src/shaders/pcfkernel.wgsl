@@ -1,5 +1,6 @@
 // Percentage-closer filtering over a kernel of taps (group 2), on top of maplookup.wgsl.
 
+// #include "resolve.wgsl"
 // #include "maplookup.wgsl"
 
 struct Kernel {
@@ -7,6 +8,8 @@ struct Kernel {
     params: vec4<f32>,
     // xy: tap offset in the unit square (box) or disk (Poisson).
     taps: array<vec4<f32>, 64>,
+    // x: the largest blur in screen pixels (`max_blur`; 0: unbounded).
+    limits: vec4<f32>,
 };
 
 @group(2) @binding(0) var<uniform> kernel: Kernel;
@@ -19,21 +22,59 @@ fn kernel_radius_texels(mp: MapPoint) -> f32 {
     return kernel.params.y;
 }
 
+// How far, in texels of the map at mp, a disk may reach and stay within one pixel of the screen
+// in every direction: the map-space steps to where the next pixel's ray, across and down, meets the
+// receiver's plane are the columns of the Jacobian J (texels per pixel); a map offset r maps back
+// to at most r / σ_min(J) pixels. So the answer is J's smaller singular value, small where the
+// pixel's footprint in the map is thin (a facade seen along the street, ground the light grazes).
+fn pixel_texels(mp: MapPoint, s: Surface, pixel: vec2<u32>) -> f32 {
+    let view = shadow_views[mp.layer];
+    let o = shadow_project(view, s.p).xy;
+    let x = (shadow_project(view, pixel_on_plane(camera, pixel, vec2<f32>(1.0, 0.0), s.depth, s.p, s.n)).xy - o)
+        * map_params.bias.z;
+    let y = (shadow_project(view, pixel_on_plane(camera, pixel, vec2<f32>(0.0, 1.0), s.depth, s.p, s.n)).xy - o)
+        * map_params.bias.z;
+    let a = dot(x, x);
+    let b = dot(y, y);
+    let c = dot(x, y);
+    // The smaller eigenvalue of JᵀJ, written so that it does not cancel to below zero.
+    let big = 0.5 * (a + b + sqrt((a - b) * (a - b) + 4.0 * c * c));
+    let det = abs(x.x * y.y - x.y * y.x);
+    return det / max(sqrt(big), 1.0e-20);
+}
+
 // The average of the kernel's comparison taps around mp in texture layer `layer`, `radius` texels
 // wide; rotated per pixel (interleaved gradient noise) when the kernel asks for it. Each tap is
-// compared with the receiver's plane there (receiver-plane depth bias, `g` from
-// `receiver_plane_gradient`): a wide kernel compared with the centre's depth darkens lit slopes.
-fn pcf_filter(mp: MapPoint, layer: u32, radius: f32, pixel: vec2<u32>, g: vec2<f32>) -> f32 {
+// compared with the receiver's plane there (receiver-plane depth bias, `rp.xy` from
+// `receiver_plane`): a wide kernel compared with the centre's depth darkens lit slopes; and
+// closer by the crease bias `rp.z` × its reach (its offset, and the texels a bilinear tap reads up
+// to 1/√2 texel from its point), so that it does not darken the foot of a wall.
+//
+// With `max_blur` set and `footprint` (`pixel_texels`; 0: none) given, the blur stays within
+// `max_blur` pixels of the screen (so that a map whose texels cover many pixels, near the eye or on
+// a surface the light grazes, does not spread an edge over metres of a lit street): the radius
+// is at most that many pixels' footprint, and where that is under a texel each bilinear tap's
+// ramp between texels is narrowed to it (`map_tap_sharp`).
+fn pcf_filter(mp: MapPoint, layer: u32, radius: f32, pixel: vec2<u32>, rp: vec3<f32>, footprint: f32) -> f32 {
     var rot = mat2x2<f32>(1.0, 0.0, 0.0, 1.0);
     if (kernel.params.w > 0.5) {
         let a = 6.2831853 * interleaved_gradient_noise(vec2<f32>(pixel));
         rot = mat2x2<f32>(cos(a), sin(a), -sin(a), cos(a));
     }
     let n = max(u32(kernel.params.x), 1u);
+    var r = radius;
+    // The width of a tap's ramp between texels, in texels (1: plain bilinear).
+    var ramp = 1.0;
+    if (kernel.limits.x > 0.0 && footprint > 0.0) {
+        let blur = kernel.limits.x * footprint;
+        r = min(r, blur);
+        ramp = clamp(blur, 1.0e-3, 1.0);
+    }
+    let reach = select(0.0, 0.7071 * ramp, map_params.mode.x > 0.5);
     var sum = 0.0;
     for (var i = 0u; i < n; i = i + 1u) {
-        let o = rot * kernel.taps[i].xy * radius;
-        sum = sum + map_tap_z(mp, o, layer, mp.uvz.z + dot(g, o));
+        let o = rot * kernel.taps[i].xy * r;
+        sum = sum + map_tap_sharp(mp, o, layer, mp.uvz.z + dot(rp.xy, o) + rp.z * (length(o) + reach), ramp);
     }
     return sum / f32(n);
 }

@@ -25,6 +25,8 @@ fn region_pixel(id: vec3<u32>) -> vec2<u32> {
 struct Surface {
     p: vec3<f32>,
     n: vec3<f32>,
+    // The depth-buffer value.
+    depth: f32,
     // The pixel shows geometry and the light may reach it (DESIGN.md §3).
     relevant: bool,
 };
@@ -36,6 +38,7 @@ fn load_surface(pixel: vec2<u32>) -> Surface {
         s.relevant = false;
         return s;
     }
+    s.depth = depth;
     s.p = world_from_depth(camera, pixel, depth);
     s.n = normalize(textureLoad(normal_texture, vec2<i32>(pixel), 0).xyz);
     s.relevant = light_relevant(light, s.p, s.n);

@@ -33,7 +33,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
     let n = params.int("n") as usize;
-    let k = kernel::kernel_uniform("box", n * n, params.float("radius") as f32, false);
+    let k = kernel::kernel_uniform("box", n * n, params.float("radius") as f32, false, 0.0);
     let own = kernel::bind_group(shared, &k);
     let pipeline = shared.resolve_pipeline(
         "blurred",

@@ -15,7 +15,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcf_filter(mp, mp.layer, kernel.params.y, pixel, receiver_plane_gradient(mp, s.p, s.n));
+            v = pcf_filter(mp, mp.layer, kernel.params.y, pixel, receiver_plane(mp, s.p, s.n), 0.0);
         }
     }
     textureStore(visibility_out, pixel, vec4<f32>(v));

@@ -52,6 +52,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         kernel::TAPS,
         ParamDef::float("radius", 1.5, 0.0, 64.0, "PCF radius"),
         ParamDef::choice("radius_unit", "texels", &["texels", "world"], "texels of split 0, or world units"),
+        kernel::MAX_BLUR,
     ),
     light_types: &["directional", "spot"],
     create,
@@ -142,12 +143,7 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
 
 fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
     let settings = cascade_settings(params, light)?;
-    let k = kernel::kernel_uniform(
-        params.choice("kernel"),
-        params.int("taps") as usize,
-        params.float("radius") as f32,
-        params.choice("radius_unit") == "world",
-    );
+    let k = kernel::from_params(params);
     let (kernel_group, kernel_bytes) = kernel::bind_group(shared, &k);
     let pipeline = shared.resolve_pipeline(
         "cascaded",

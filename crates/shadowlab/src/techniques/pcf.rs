@@ -16,7 +16,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "pcf",
     summary: "percentage-closer filtering: box, Poisson or rotated Poisson kernels",
     source: "Reeves et al. 1987; Azri 2020 §3 (3×3 PCF); Stingl 2011 §2.3",
-    params: crate::map_params!(kernel::KERNEL, kernel::TAPS, kernel::RADIUS, kernel::RADIUS_UNIT),
+    params: crate::map_params!(kernel::KERNEL, kernel::TAPS, kernel::RADIUS, kernel::RADIUS_UNIT, kernel::MAX_BLUR),
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,

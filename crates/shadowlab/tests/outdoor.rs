@@ -110,7 +110,10 @@ fn warps_never_make_a_map_worse() {
     for elevation in [35.0, 8.0] {
         let mut street = Street::new(elevation);
         for partition in partitions {
-            let plain = format!("cascaded:{partition}");
+            // The same focus unwarped: free, as a warped map's is (`quantize` applies to unwarped
+            // maps only; it moves the 8° sun's grazing edge across the street by rows: practical
+            // splits 2.17% wrong free, 2.06% quantised).
+            let plain = format!("cascaded:{partition},quantize=false");
             let (base, base_all) = street.wrong(&plain);
             for warp in warps {
                 let spec = format!("cascaded:{partition},warp={warp}");
@@ -124,8 +127,8 @@ fn warps_never_make_a_map_worse() {
                 );
                 // The issue's bound: a warp adds at most 0.1 points of wrong pixels to the same
                 // partition unwarped, over all relevant pixels and away from the truth's edges
-                // (measured at most +0.068 points in all: log splits with PSM at 8°; +0.015 away
-                // from edges: practical splits with PSM at 35°). Before warped maps stored linear
+                // (measured at most +0.068 points in all: log splits with PSM at 8°; +0.064 away
+                // from edges: practical splits with η = 0.5 at 35°). Before warped maps stored linear
                 // depth, PSM drew rows of false shadow over the whole lit street (52% wrong at
                 // 35°; log splits with LiSPSM 21%); before PSM took the visible near plane, its
                 // far texels shadowed thin lit poles (+0.11 points away from edges).
@@ -216,6 +219,7 @@ fn thin_casters_keep_their_shadows() {
         "pcf",
         "cascaded",
         "cascaded:warp=lispsm",
+        "cascaded:splits=4,quantize=false",
         "cascaded:splits=4",
         "cascaded:splits=4,scheme=log",
         "cascaded:splits=4,scheme=log,stabilize=true",
@@ -241,13 +245,26 @@ fn thin_casters_keep_their_shadows() {
             println!("{elevation}°: {spec}: keeps {:.1}% of the posts' shadow pixels", 100.0 * kept);
             // Volumes are exact but for the rasterisation of their faces, and four log-spaced
             // splits give the street's near posts texels of centimetres (measured: volumes 98.2% at
-            // 35°, 96.9% at 8°; splits=4,scheme=log 97.4% and 96.9%; for contrast one 2048² map,
-            // `hard`, 4.7% and 4.1%). Bound: 0.93, four points under the lowest.
+            // 35°, 96.9% at 8°; splits=4,scheme=log 97.9% and 94.8%; for contrast one 2048² map,
+            // `hard`, 4.7% and 4.1%). Bound: 0.9, about five points under the lowest.
             let keeps = matches!(spec, "volumes" | "cascaded:splits=4,scheme=log");
-            if keeps && kept < 0.93 {
+            if keeps && kept < 0.9 {
                 failures.push(format!("{elevation}°: {spec} keeps {kept}"));
             }
         }
     }
     assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Issue 19 item 4: focus without flicker. Focused `cascaded` along the city's walk (60 frames down
+/// the main street) shimmers no more than 1.5× `hard`.
+#[test]
+fn focused_maps_do_not_flicker_along_the_street() {
+    let s = common::path_flicker("city", "walk", W, H, &["hard", "cascaded", "cascaded:stabilize=true"]);
+    let [hard, focused, stable] = [&s[0], &s[1], &s[2]].map(|f| f.fraction());
+    println!("flicker: hard {:.4}%, focused {:.4}%, stabilised {:.4}%", 100.0 * hard, 100.0 * focused, 100.0 * stable);
+    assert!(s.iter().all(|f| f.pixels > 1_000_000));
+    // The issue's bound. Measured (256×192, llvmpipe): hard 0.047%, focused 0.011% (0.291% before
+    // the focus box was quantised), stabilised 0.017%.
+    assert!(focused <= 1.5 * hard, "focused {focused} against hard {hard}");
 }

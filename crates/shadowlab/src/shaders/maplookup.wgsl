@@ -171,6 +171,10 @@ fn crease_slope(mp: MapPoint, p: vec3<f32>, g: vec2<f32>) -> f32 {
     }
     // The depth of one texel width along the light's ray.
     let k = abs(shadow_project(view, p + ray * mp.texel).z - shadow_project(view, p).z);
+    // (Written so that a degenerate step, zero or not a number, gives no bias rather than NaN.)
+    if (!(k > 0.0)) {
+        return 0.0;
+    }
     let s = min(length(g), 8.0 * k);
     return s + k * k / max(s, k / 8.0);
 }

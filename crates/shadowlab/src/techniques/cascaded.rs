@@ -8,6 +8,8 @@
 //! - `pseudo_near`, `pseudo_far`: Lloyd's pseudo-near and Stingl's pseudo-far planes (§4.2);
 //! - `auto_near`: near and far from a GPU min/max reduction of the previous frame's depth (§4.3);
 //! - `stabilize`: quantised scale and texel-snapped offsets against flicker (§3.5; not with warping);
+//!   `quantize` (on by default) does the same for a focused map's own box, without squaring it or
+//!   tying its size to the scene's (`shadowlab_core::cascades`, `quantised_box`);
 //! - the bias of `hard` and the kernel of `pcf`, the radius kept at split 0's world size (Eq. 3.9).
 //!
 //! `map_size` is per split: PSSM(4) at 1024² spends the texels of one 2048² map. The maps are the
@@ -47,6 +49,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::float("pseudo_far", 0.0, 0.0, 0.95, "pseudo-far plane, fraction of the depth range from the far end"),
         ParamDef::bool("auto_near", false, "near/far from the previous frame's visible depth range"),
         ParamDef::bool("stabilize", false, "quantised scale and texel-snapped offsets (no warping)"),
+        ParamDef::bool("quantize", true, "focus box on a 9% ladder of sizes, centre on whole texels (unwarped)"),
         ParamDef::float("blend", 0.0, 0.0, 0.5, "blend band between splits, fraction of a split (depth selection)"),
         ParamDef::choice("kernel", "none", &["none", "box", "poisson", "rotated"], "PCF tap pattern (none: one tap)"),
         kernel::TAPS,
@@ -108,6 +111,7 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
             pseudo_near: 0.0,
             pseudo_far: 0.0,
             stabilize: false,
+            quantize: false,
             map_size: params.int("map_size") as u32,
             depth_range: None,
             visible_near: None,
@@ -135,6 +139,7 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
         pseudo_near: params.float("pseudo_near") as f32,
         pseudo_far: params.float("pseudo_far") as f32,
         stabilize: params.bool("stabilize"),
+        quantize: params.bool("quantize"),
         map_size: params.int("map_size") as u32,
         depth_range: None,
         visible_near: None,

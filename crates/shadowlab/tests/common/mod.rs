@@ -3,7 +3,8 @@
 #![allow(dead_code)]
 
 use shadowlab::{BackendChoice, Gpu, Renderer, TechniqueSpec};
-use shadowlab_core::{LightId, Scene, SurfaceBuffer, View};
+use shadowlab_core::{LightId, Scene, SurfaceBuffer, View, load_scene};
+use shadowlab_reference::temporal::{FlickerStats, FrameSample, flicker};
 use shadowlab_reference::{ReferenceSettings, SceneBvh, Selection, light_visibility};
 
 /// The test GPU: whatever wgpu finds (on CI machines Mesa's lavapipe, Vulkan on the CPU).
@@ -84,4 +85,55 @@ pub fn boundary_width(run: &Run, v: &[f32]) -> f32 {
         width += 4.0 * m.min(1.0 - m) * dx;
     }
     width
+}
+
+/// Flicker of light 0 along the camera path `path` of `scene` at `width` × `height`: each
+/// technique against the same per-frame references (the truth on each frame's surface).
+pub fn path_flicker(scene: &str, path: &str, width: u32, height: u32, specs: &[&str]) -> Vec<FlickerStats> {
+    let gpu = gpu();
+    let scene = load_scene(scene).unwrap().scene;
+    let views = scene.path(path).unwrap().views();
+    let renderer = |spec: &str| {
+        let mut r = Renderer::new(&gpu, scene.clone(), &views[0], width, height);
+        let none = TechniqueSpec::parse("none", &[]).unwrap();
+        for i in 1..scene.lights.len() as u32 {
+            r.set_technique(LightId(i), &none).unwrap();
+        }
+        r.set_technique(LightId(0), &TechniqueSpec::parse(spec, &[]).unwrap()).unwrap();
+        r
+    };
+    let mut base = renderer("none");
+    let mut frames = Vec::new();
+    for v in &views {
+        base.set_view(v);
+        base.render().unwrap();
+        let surface = base.read_surface().unwrap();
+        let r = reference(&scene, &surface, LightId(0), 1);
+        frames.push((surface, r));
+    }
+    specs
+        .iter()
+        .map(|spec| {
+            let mut r = renderer(spec);
+            let mut stats = FlickerStats::default();
+            let mut prev: Option<Vec<f32>> = None;
+            for (t, v) in views.iter().enumerate() {
+                r.set_view(v);
+                r.render().unwrap();
+                let value = r.read_visibility(LightId(0)).unwrap().unwrap();
+                if let Some(p) = &prev {
+                    let a = FrameSample {
+                        view: &views[t - 1],
+                        surface: &frames[t - 1].0,
+                        value: p,
+                        reference: &frames[t - 1].1,
+                    };
+                    let b = FrameSample { view: v, surface: &frames[t].0, value: &value, reference: &frames[t].1 };
+                    stats.add(&flicker(&a, &b));
+                }
+                prev = Some(value);
+            }
+            stats
+        })
+        .collect()
 }

@@ -1,7 +1,6 @@
 // Percentage-closer filtering over a kernel of taps (group 2), on top of maplookup.wgsl.
 
-// #include "resolve.wgsl"
-// #include "maplookup.wgsl"
+// #include "footprint.wgsl"
 
 struct Kernel {
     // x: taps; y: radius; z: 1 when the radius is in world units (else texels); w: 1 to rotate.
@@ -20,27 +19,6 @@ fn kernel_radius_texels(mp: MapPoint) -> f32 {
         return kernel.params.y / max(mp.texel, 1.0e-12);
     }
     return kernel.params.y;
-}
-
-// How far, in texels of the map at mp, a disk may reach and stay within one pixel of the screen
-// in every direction: the map-space steps to where the next pixel's ray, across and down, meets the
-// receiver's plane are the columns of the Jacobian J (texels per pixel); a map offset r maps back
-// to at most r / σ_min(J) pixels. So the answer is J's smaller singular value, small where the
-// pixel's footprint in the map is thin (a facade seen along the street, ground the light grazes).
-fn pixel_texels(mp: MapPoint, s: Surface, pixel: vec2<u32>) -> f32 {
-    let view = shadow_views[mp.layer];
-    let o = shadow_project(view, s.p).xy;
-    let x = (shadow_project(view, pixel_on_plane(camera, pixel, vec2<f32>(1.0, 0.0), s.depth, s.p, s.n)).xy - o)
-        * map_params.bias.z;
-    let y = (shadow_project(view, pixel_on_plane(camera, pixel, vec2<f32>(0.0, 1.0), s.depth, s.p, s.n)).xy - o)
-        * map_params.bias.z;
-    let a = dot(x, x);
-    let b = dot(y, y);
-    let c = dot(x, y);
-    // The smaller eigenvalue of JᵀJ, written so that it does not cancel to below zero.
-    let big = 0.5 * (a + b + sqrt((a - b) * (a - b) + 4.0 * c * c));
-    let det = abs(x.x * y.y - x.y * y.x);
-    return det / max(sqrt(big), 1.0e-20);
 }
 
 // The average of the kernel's comparison taps around mp in texture layer `layer`, `radius` texels

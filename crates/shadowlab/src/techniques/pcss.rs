@@ -32,7 +32,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::bool("rotate", true, "rotate the Poisson disk per pixel (noise instead of banding)"),
         ParamDef::float("max_search", 48.0, 1.0, 512.0, "largest blocker-search radius (texels)"),
         ParamDef::float("max_filter", 48.0, 0.5, 512.0, "largest filter radius (texels)"),
-        ParamDef::float("min_filter", 1.0, 0.0, 16.0, "smallest filter radius (texels)"),
+        ParamDef::float("min_filter", 1.0, 0.0, 16.0, "smallest filter radius (texels; at most a pixel's footprint)"),
     ),
     light_types: super::ALL_LIGHTS,
     create,

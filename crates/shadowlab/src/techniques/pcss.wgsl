@@ -1,8 +1,7 @@
 // `pcss`: percentage-closer soft shadows (Fernando 2005). Blocker search, penumbra estimate from
 // the average blocker distance by similar triangles, then PCF over a kernel of that size.
 
-// #include "resolve.wgsl"
-// #include "maplookup.wgsl"
+// #include "footprint.wgsl"
 
 struct Pcss {
     // x: search taps; y: filter taps; z: 1 to rotate the disk per pixel; w: the emitter's radius
@@ -25,9 +24,13 @@ fn penumbra_half_width(view: ShadowView, zr: f32, zb: f32) -> f32 {
     return pcss.params.w * max(zr - zb, 0.0) / max(zb, 1.0e-6);
 }
 
-fn pcss_visibility(mp: MapPoint, p: vec3<f32>, n: vec3<f32>, pixel: vec2<u32>) -> f32 {
+fn pcss_visibility(mp: MapPoint, s: Surface, pixel: vec2<u32>) -> f32 {
+    let p = s.p;
+    let n = s.n;
     let view = shadow_views[mp.layer];
-    // Each tap is compared with the receiver plane's depth there (receiver-plane depth bias).
+    // Each tap is compared with the receiver plane's depth there (receiver-plane depth bias). (The
+    // crease bias of `pcf` is left out: over a soft penumbra's radius it hides contact shadows;
+    // on the dragon under a grazing sun it took the RMSE from 0.031 to 0.042.)
     let g = receiver_plane_gradient(mp, p, n);
     let zr = shadow_distance(view, mp.uvz.z);
     var rot = mat2x2<f32>(1.0, 0.0, 0.0, 1.0);
@@ -57,12 +60,18 @@ fn pcss_visibility(mp: MapPoint, p: vec3<f32>, n: vec3<f32>, pixel: vec2<u32>) -
     }
     // 2. Penumbra estimate from the average blocker distance; 3. PCF over it.
     let zb = sum / count;
-    let radius = clamp(penumbra_half_width(view, zr, zb) / max(mp.texel, 1.0e-12), pcss.limits.z, pcss.limits.y);
+    // The smallest filter only smooths the map's texels away: no wider than a pixel's footprint
+    // (`pixel_texels`), and below a texel the bilinear taps' ramps narrowed to that (as `pcf`'s
+    // `max_blur=1`), so that a hard light's map of metre texels does not blur every edge by metres.
+    let fp = pixel_texels(mp, s, pixel);
+    let floor_radius = min(pcss.limits.z, fp);
+    let radius = clamp(penumbra_half_width(view, zr, zb) / max(mp.texel, 1.0e-12), floor_radius, pcss.limits.y);
+    let ramp = clamp(max(radius, fp), 1.0e-3, 1.0);
     let nf = max(u32(pcss.params.y), 1u);
     var v = 0.0;
     for (var i = 0u; i < nf; i = i + 1u) {
         let o = rot * pcss.taps[i].xy * radius;
-        v = v + map_tap_z(mp, o, mp.layer, mp.uvz.z + dot(g, o));
+        v = v + map_tap_sharp(mp, o, mp.layer, mp.uvz.z + dot(g, o), ramp);
     }
     return v / f32(nf);
 }
@@ -78,7 +87,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcss_visibility(mp, s.p, s.n, pixel);
+            v = pcss_visibility(mp, s, pixel);
         }
     }
     textureStore(visibility_out, pixel, vec4<f32>(v));

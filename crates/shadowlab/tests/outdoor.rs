@@ -196,8 +196,9 @@ fn filters_leave_lit_streets_lit() {
                 100.0 * all,
                 100.0 * base_all
             );
-            // The bound, 0.1% of lit pixels. Measured at most 0.076% (one map with any
-            // kernel at 35°; the unfiltered lookups 0.000–0.024%; pcss 0.010% and 0.044%). Before
+            // The bound, 0.1% of lit pixels. Measured at most 0.044% (pcf and pcss at 8°;
+            // one map with a box kernel 0.034% at 35°, 0.076% before its focus was quantised; the
+            // unfiltered lookups 0.000–0.024%). Before
             // the blur was bounded in screen pixels (`max_blur`, pcss's smallest filter) and taps
             // allowed for creases (`crease_slope`): pcf 2.6% at 35° and 20% at 8° (kernel=box
             // 32%), one map with Poisson 17% at 8°, pcss 0.78% and 3.0%; without the crease bias,

@@ -21,6 +21,8 @@ const TECHNIQUES: &[&str] = &[
     "sampled:samples=9,map_size=256,mode=array",
     "cssm:samples0=4,samples1=4,samples2=4,size0=256,size1=256,size2=128",
     "cascaded:splits=2,stabilize=true,map_size=512",
+    // Quantised focus (the default) keeps its views, and so its maps, while the camera moves.
+    "cascaded:splits=2,map_size=512",
     "smoothies:map_size=512",
     "volumes",
     "lightmaps:samples=9,texel=0.05,rest=hard",

@@ -22,7 +22,12 @@ fn view_depth(cam: Camera, p: vec3<f32>) -> f32 {
 
 // NDC of the centre of `pixel` (top-left origin, y up in NDC).
 fn ndc_of_pixel(pixel: vec2<u32>, size: vec4<f32>) -> vec2<f32> {
-    let uv = (vec2<f32>(pixel) + vec2<f32>(0.5)) * size.zw;
+    return ndc_of_point(vec2<f32>(pixel) + vec2<f32>(0.5), size);
+}
+
+// NDC of a point given in pixels (top-left origin).
+fn ndc_of_point(xy: vec2<f32>, size: vec4<f32>) -> vec2<f32> {
+    let uv = xy * size.zw;
     return vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
 }
 
@@ -42,8 +47,7 @@ fn eye_relative(cam: Camera, ndc: vec2<f32>, depth: f32) -> vec3<f32> {
 // normal n; the point on that ray at depth-buffer value `depth` where ray and plane are parallel.
 // (The neighbour's surface point on the pixel's plane: how far apart a pixel's samples lie there.)
 fn pixel_on_plane(cam: Camera, pixel: vec2<u32>, d: vec2<f32>, depth: f32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let uv = (vec2<f32>(pixel) + vec2<f32>(0.5) + d) * cam.size.zw;
-    let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+    let ndc = ndc_of_point(vec2<f32>(pixel) + vec2<f32>(0.5) + d, cam.size);
     let a = eye_relative(cam, ndc, depth);
     // A second point of the ray, halfway to the background's depth (finite for either Z).
     let dir = eye_relative(cam, ndc, mix(depth, cam.depth.x, 0.5)) - a;

@@ -9,6 +9,7 @@
 // receiver's plane are the columns of the Jacobian J (texels per pixel); a map offset r maps back
 // to at most r / σ_min(J) pixels. So the answer is J's smaller singular value, small where the
 // pixel's footprint in the map is thin (a facade seen along the street, ground the light grazes).
+// Never NaN.
 fn pixel_texels(mp: MapPoint, s: Surface, pixel: vec2<u32>) -> f32 {
     let view = shadow_views[mp.layer];
     let o = shadow_project(view, s.p).xy;
@@ -22,5 +23,11 @@ fn pixel_texels(mp: MapPoint, s: Surface, pixel: vec2<u32>) -> f32 {
     // The smaller eigenvalue of JᵀJ, written so that it does not cancel to below zero.
     let big = 0.5 * (a + b + sqrt((a - b) * (a - b) + 4.0 * c * c));
     let det = abs(x.x * y.y - x.y * y.x);
-    return det / max(sqrt(big), 1.0e-20);
+    let t = det / max(sqrt(big), 1.0e-20);
+    // A neighbour's ray that misses the map's projection (behind a spot light, say) gives no
+    // footprint: taken as unbounded, so the filter keeps its own radius.
+    if (!(t >= 0.0 && t < 1.0e30)) {
+        return 1.0e30;
+    }
+    return t;
 }

@@ -14,6 +14,7 @@ const SHARED: &[(&str, &str)] = &[
     ("resolve.wgsl", include_str!("shaders/resolve.wgsl")),
     ("maplookup.wgsl", include_str!("shaders/maplookup.wgsl")),
     ("footprint.wgsl", include_str!("shaders/footprint.wgsl")),
+    ("horizon.wgsl", include_str!("shaders/horizon.wgsl")),
     ("pcfkernel.wgsl", include_str!("shaders/pcfkernel.wgsl")),
     ("selection.wgsl", include_str!("shaders/selection.wgsl")),
     ("samples.wgsl", include_str!("shaders/samples.wgsl")),

@@ -2,6 +2,7 @@
 // the average blocker distance by similar triangles, then PCF over a kernel of that size.
 
 // #include "footprint.wgsl"
+// #include "horizon.wgsl"
 
 struct Pcss {
     // x: search taps; y: filter taps; z: 1 to rotate the disk per pixel; w: the emitter's radius
@@ -87,7 +88,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcss_visibility(mp, s, pixel);
+            // The map cannot see the receiver hide part of the emitter from itself (horizon.wgsl).
+            v = min(pcss_visibility(mp, s, pixel), light_horizon(light, s.p, s.n));
         }
     }
     textureStore(visibility_out, pixel, vec4<f32>(v));

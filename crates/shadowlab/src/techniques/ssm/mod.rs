@@ -33,7 +33,8 @@
 //! [`shadowlab_core::backprojection::fraction_above`]), combined with the contour's fraction by the
 //! minimum; the receiver's plane (receiver-plane depth bias, Isidoro 2006) is extrapolated only
 //! `plane_reach` texels, beyond which curved receivers leave it and it would hide real occluders; and
-//! `show` writes the class, the level or the kernel instead of V, for analysis.
+//! `show` writes the class, the level, the kernel, or the contour's or the horizon's fraction alone
+//! instead of V, for analysis.
 //!
 //! Known limits: one depth layer (occluders hidden behind others in the map are missed, as in the
 //! paper, §8); a point light's kernel stays on the cube face of the pixel, so penumbrae crossing a
@@ -50,7 +51,7 @@ use crate::technique::{FrameContext, Handover, ShadowTechnique, TechniqueError, 
 use crate::timing::PassKind;
 
 /// What `show` can put in the visibility layer instead of V (for analysis).
-const SHOW: [&str; 4] = ["visibility", "class", "level", "kernel"];
+const SHOW: [&str; 6] = ["visibility", "class", "level", "kernel", "contour", "horizon"];
 
 /// Workgroups (of 64) of the visibility pass on CPU adapters, each invocation looping over the list:
 /// enough to keep every core busy, few enough that invocations past the list's end cost nothing.
@@ -106,7 +107,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
             "show",
             "visibility",
             &SHOW,
-            "analysis: the visibility; lit 1, penumbra ½, umbra 0; the level used (⅛ per level); the kernel's width (1 at 256 texels)",
+            "analysis: the visibility; lit 1, penumbra ½, umbra 0; the level used (⅛ per level); the kernel's width (1 at 256 texels); the contour's fraction alone; the horizon's alone (both on computed penumbra pixels)",
         ),
     ],
     light_types: super::ALL_LIGHTS,

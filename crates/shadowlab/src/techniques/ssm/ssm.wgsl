@@ -13,6 +13,7 @@
 
 // #include "resolve.wgsl"
 // #include "maplookup.wgsl"
+// #include "horizon.wgsl"
 
 struct Ssm {
     // x: contour parameter t at the finest level; y: t at coarser levels; z: t_k, the widest kernel
@@ -26,7 +27,7 @@ struct Ssm {
     limits: vec4<f32>,
     // x: relative depth step and y: cosine of the normal angle that make a discontinuity; z: how far
     // (pixels) discontinuities force exact computation; w: what to show (0: visibility, 1: the
-    // class, 2: the level, 3: the kernel's width).
+    // class, 2: the level, 3: the kernel's width, 4: the contour's fraction, 5: the horizon's).
     screen: vec4<f32>,
     // y: how far (level-0 texels) the receiver's plane is extrapolated.
     extra: vec4<f32>,
@@ -230,11 +231,7 @@ fn emitter_row(inv: mat4x4<f32>, p: vec3<f32>, a: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(r.x * k, -r.y * k, r.z, r.w - r.x + r.y);
 }
 
-// ---- the normalised emitter domain: [−1, 1]² or the unit disk ----
-
-fn cross2(a: vec2<f32>, b: vec2<f32>) -> f32 {
-    return a.x * b.y - a.y * b.x;
-}
+// ---- the normalised emitter domain: [−1, 1]² or the unit disk (cross2, square_corner: horizon.wgsl) ----
 
 // The parameter range (t0, t1) of segment a + s(b − a) inside the domain; empty when t0 ≥ t1.
 fn clip_range(disk: bool, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
@@ -270,12 +267,6 @@ fn clip_side(r: vec2<f32>, p: f32, q: f32) -> vec2<f32> {
         return vec2<f32>(max(r.x, t), r.y);
     }
     return vec2<f32>(r.x, min(r.y, t));
-}
-
-// Corner i of the square, counter-clockwise from (1, 1).
-fn square_corner(i: i32) -> vec2<f32> {
-    let k = i & 3;
-    return vec2<f32>(select(-1.0, 1.0, k == 0 || k == 3), select(-1.0, 1.0, k < 2));
 }
 
 // The square's boundary point in direction u.
@@ -349,83 +340,10 @@ fn edge_area(disk: bool, a: vec2<f32>, b: vec2<f32>) -> f32 {
     return sign(c) * beyond;
 }
 
-// ---- the receiver's own horizon ----
+// ---- the receiver's own horizon (horizon.wgsl) ----
 
-// The fraction of the emitter above the receiver's tangent plane (normal n): the part below is hidden
-// by the receiver itself (the attached shadow near a terminator, which the truth's rays see and a
-// depth map cannot, since the receiver's own samples are not occluders). In normalised emitter
-// coordinates the plane is the half-plane k0 + k1 u + k2 v > 0.
 fn horizon(px: Pixel) -> f32 {
-    let kind = light_kind(light);
-    let n = px.n;
-    var k = vec3<f32>(0.0);
-    if (kind == LIGHT_RECT) {
-        let half = 0.5 * light.cone.zw;
-        let tangent = normalize(light.tangent.xyz);
-        let bitangent = normalize(cross(light.direction.xyz, tangent));
-        k = vec3<f32>(dot(light.position.xyz - px.p, n), half.x * dot(tangent, n), half.y * dot(bitangent, n));
-    } else {
-        let u = basis_u(px.m);
-        let b = cross(px.m, u);
-        let r = emitter_radius();
-        // A local light's disk lies at distance k along m; the sun's directions are m + tan θ (u, v).
-        let along = select(px.k, 1.0, kind == LIGHT_DIRECTIONAL);
-        k = vec3<f32>(along * dot(px.m, n), r * dot(u, n), r * dot(b, n));
-    }
-    return emitter_above(px.disk, k);
-}
-
-// The fraction of the normalised domain where k.x + k.y u + k.z v > 0 (shadowlab_core::backprojection
-// ::fraction_above).
-fn emitter_above(disk: bool, k: vec3<f32>) -> f32 {
-    if (any(k != k)) {
-        return 1.0;
-    }
-    let l = length(k.yz);
-    if (l < 1.0e-12) {
-        return select(0.0, 1.0, k.x > 0.0);
-    }
-    if (disk) {
-        // The centre's signed distance to the line; the circular segment beyond it is hidden.
-        let d = clamp(k.x / l, -1.0, 1.0);
-        return (3.14159265 - (acos(d) - d * sqrt(max(1.0 - d * d, 0.0)))) / 3.14159265;
-    }
-    // The square clipped by the half-plane (one Sutherland–Hodgman step), its area by the shoelace
-    // formula accumulated edge by edge.
-    var twice = 0.0;
-    var first = vec2<f32>(0.0);
-    var last = vec2<f32>(0.0);
-    var started = false;
-    for (var i = 0; i < 4; i = i + 1) {
-        let a = square_corner(i + 2);
-        let b = square_corner(i + 3);
-        let fa = k.x + dot(k.yz, a);
-        let fb = k.x + dot(k.yz, b);
-        if (fa >= 0.0) {
-            if (started) {
-                twice = twice + cross2(last, a);
-            } else {
-                first = a;
-                started = true;
-            }
-            last = a;
-        }
-        if ((fa >= 0.0) != (fb >= 0.0)) {
-            let x = a + (fa / (fa - fb)) * (b - a);
-            if (started) {
-                twice = twice + cross2(last, x);
-            } else {
-                first = x;
-                started = true;
-            }
-            last = x;
-        }
-    }
-    if (!started) {
-        return 0.0;
-    }
-    twice = twice + cross2(last, first);
-    return clamp(0.5 * twice / 4.0, 0.0, 1.0);
+    return light_horizon(light, px.p, px.n);
 }
 
 // ---- smooth contour detection (§4.1) ----
@@ -546,9 +464,9 @@ struct Level {
     // The view's texture layer (level 0) or its block's offset in the pyramid (coarser levels).
     layer: i32,
     base: u32,
-    // The receiver plane's rise over half a texel of the level: a coarse texel holds the nearest
-    // depth of the finer texels it covers.
-    slack: f32,
+    // Half the level's texel in level-0 texels, between the centres of the finer texels it covers
+    // (a coarse texel holds the nearest depth of them all).
+    half_extent: f32,
 };
 
 fn level_of(px: Pixel, level: u32) -> Level {
@@ -558,7 +476,7 @@ fn level_of(px: Pixel, level: u32) -> Level {
     l.side = level_side(level);
     l.layer = view_layer(px.view);
     l.base = px.view * u32(ssm.limits.w) + ssm.levels[level].x;
-    l.slack = px.g1 * 0.5 * (l.scale - 1.0);
+    l.half_extent = 0.5 * (l.scale - 1.0);
     return l;
 }
 
@@ -587,9 +505,15 @@ fn nearest_at(l: Level, s: vec2<i32>) -> f32 {
 fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
     let o = (vec2<f32>(s) + vec2<f32>(0.5)) * l.scale - px.st;
     // The receiver's plane holds near it only: beyond `plane_reach` texels (per axis) a curved
-    // receiver leaves its tangent plane, and extrapolating it would hide real occluders.
+    // receiver leaves its tangent plane, and extrapolating it would hide real occluders. A coarse
+    // sample holds the nearest of its finer texels, so it is compared with the highest the
+    // (clamped) plane gets over them: per axis at the texel's side the plane rises towards, which
+    // is the plane's rise over half the texel near the receiver and nothing beyond `plane_reach`
+    // (where the plane is flat), so that a steep receiver does not lift the threshold above real
+    // occluders far from it.
     let reach = ssm.extra.y;
-    return px.z + dot(px.g, clamp(o, vec2<f32>(-reach), vec2<f32>(reach))) + l.slack;
+    let side = sign(px.g) * l.half_extent;
+    return px.z + dot(px.g, clamp(o + side, vec2<f32>(-reach), vec2<f32>(reach)));
 }
 
 // (stored depth, 1 if it occludes) of sample s.
@@ -674,10 +598,10 @@ fn uniform_samples(px: Pixel, l: Level, lo: vec2<i32>, hi: vec2<i32>) -> bool {
     // The receiver's plane over the samples rises at most |g| per texel, out to `plane_reach`.
     let a0 = (vec2<f32>(lo) + vec2<f32>(0.5)) * l.scale - px.st;
     let a1 = (vec2<f32>(hi) + vec2<f32>(0.5)) * l.scale - px.st;
-    let far = min(max(abs(a0), abs(a1)), vec2<f32>(ssm.extra.y));
+    let far = min(max(abs(a0), abs(a1)) + vec2<f32>(l.half_extent), vec2<f32>(ssm.extra.y));
     let e = dot(abs(px.g), far);
-    let low = px.z - e + l.slack;
-    let high = px.z + e + l.slack;
+    let low = px.z - e;
+    let high = px.z + e;
     return nearest <= low || farthest > high;
 }
 
@@ -806,8 +730,10 @@ fn setup(pixel: vec2<u32>) -> Setup {
     var b = Bounds(global.x, global.y, 0.0);
     let iterations = u32(ssm.limits.x);
     for (var i = 0u; i < iterations; i = i + 1u) {
-        // Texels nearer than the receiver's plane anywhere in the kernel count as occluders.
-        let nb = hsm_bounds(px.view, px.st - vec2<f32>(half), px.st + vec2<f32>(half), px.z + px.g1 * (half + 1.0));
+        // Texels nearer than the receiver's plane anywhere in the kernel count as occluders (the
+        // plane held out to `plane_reach`, as `threshold` holds it).
+        let rise = px.g1 * (min(half, ssm.extra.y) + 1.0);
+        let nb = hsm_bounds(px.view, px.st - vec2<f32>(half), px.st + vec2<f32>(half), px.z + rise);
         let nh = kernel_half(px, shadow_distance(view, nb.nearest));
         b = nb;
         if (nh >= half * 0.999) {
@@ -1019,6 +945,15 @@ fn listed(i: u32) {
     }
     // The receiver's horizon and the occluders' contour, combined by the minimum (exact when one
     // hides a part of the emitter the other does too).
+    // Analysis: the contour's fraction alone, the horizon's alone.
+    if (ssm.screen.w == 4.0) {
+        vbuf[i] = vec2<f32>(v, 1.0);
+        return;
+    }
+    if (ssm.screen.w == 5.0) {
+        vbuf[i] = vec2<f32>(s.horizon, 1.0);
+        return;
+    }
     vbuf[i] = vec2<f32>(min(v, s.horizon), 1.0);
 }
 

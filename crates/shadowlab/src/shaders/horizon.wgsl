@@ -3,7 +3,9 @@
 // which the truth's rays see (DESIGN.md §3: a ray below the tangent plane enters the surface) and
 // a depth map cannot. Since the truth's visible part of the emitter lies inside this one, the
 // minimum of a technique's visibility and this fraction is never farther from the truth than the
-// technique alone. Shared by `ssm` and `pcss`; the CPU reference is
+// technique alone, up to the normal: techniques see the G-buffer's shading normal, the truth the
+// facet's, so near the terminators of smooth meshes a few lit pixels darken (0.1% of the bunny's).
+// Taken by `ssm`, `pcss`, `blurred` and `smoothies`; the CPU reference is
 // shadowlab_core::backprojection::fraction_above.
 
 // #include "lights.wgsl"

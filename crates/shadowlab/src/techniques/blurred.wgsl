@@ -3,6 +3,7 @@
 
 // #include "resolve.wgsl"
 // #include "pcfkernel.wgsl"
+// #include "horizon.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -17,6 +18,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if (mp.on_map) {
             v = pcf_filter(mp, mp.layer, kernel.params.y, pixel, receiver_plane(mp, s.p, s.n), 0.0);
         }
+        // A soft shadow's part the map cannot see: the receiver hiding the emitter (horizon.wgsl).
+        v = min(v, light_horizon(light, s.p, s.n));
     }
     textureStore(visibility_out, pixel, vec4<f32>(v));
 }

@@ -88,9 +88,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            // The map cannot see the receiver hide part of the emitter from itself (horizon.wgsl).
-            v = min(pcss_visibility(mp, s, pixel), light_horizon(light, s.p, s.n));
+            v = pcss_visibility(mp, s, pixel);
         }
+        // The map cannot see the receiver hide part of the emitter from itself (horizon.wgsl).
+        v = min(v, light_horizon(light, s.p, s.n));
     }
     textureStore(visibility_out, pixel, vec4<f32>(v));
 }

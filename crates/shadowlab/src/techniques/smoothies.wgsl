@@ -3,6 +3,7 @@
 
 // #include "resolve.wgsl"
 // #include "maplookup.wgsl"
+// #include "horizon.wgsl"
 
 struct Smoothies {
     // x: the emitter's radius (perspective views) or tan of its angular radius (orthographic).
@@ -48,6 +49,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 v = smoothie_visibility(mp);
             }
         }
+        // A soft shadow's part the map cannot see: the receiver hiding the emitter (horizon.wgsl).
+        v = min(v, light_horizon(light, s.p, s.n));
     }
     textureStore(visibility_out, id.xy, vec4<f32>(v));
 }

@@ -65,6 +65,8 @@ impl Shared {
                 },
                 // The pixel region a resolve covers (`ResolveRegion`).
                 uniform_entry(5, wgpu::ShaderStages::COMPUTE),
+                // The facets' own normals (`SurfaceInputs::set_geometric_normal`).
+                texture_entry(6, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
             ],
         });
         let whole_region =
@@ -125,6 +127,10 @@ impl Shared {
                 wgpu::BindGroupEntry { binding: 3, resource: light.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&out.view) },
                 wgpu::BindGroupEntry { binding: 5, resource: region.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: wgpu::BindingResource::TextureView(surface.geometric_normal()),
+                },
             ],
         })
     }

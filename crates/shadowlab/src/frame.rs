@@ -182,12 +182,15 @@ impl LightUniform {
 ///
 /// Requirements: `depth` is a depth texture view (depth aspect only) of size `width × height`;
 /// `normal` is a float texture (e.g. `Rgba16Float`) whose `xyz` is the unit world-space normal
-/// facing the camera.
+/// facing the camera. Optionally ([`SurfaceInputs::set_geometric_normal`]) a texture of the facets'
+/// own normals, in the same form, for the tests that must hold on the facet (DESIGN.md §3: the
+/// receiver's horizon); without it the shading normal stands in.
 pub struct SurfaceInputs {
     pub width: u32,
     pub height: u32,
     pub depth: wgpu::TextureView,
     pub normal: wgpu::TextureView,
+    geometric_normal: Option<wgpu::TextureView>,
     pub camera: CameraUniform,
     pub camera_buffer: wgpu::Buffer,
     /// Changes whenever the surface may have: a new camera, or [`SurfaceInputs::touch`]. With the
@@ -215,7 +218,29 @@ impl SurfaceInputs {
         height: u32,
     ) -> Self {
         let camera_buffer = crate::util::uniform_buffer(device, "camera", bytemuck::bytes_of(&camera));
-        Self { width, height, depth, normal, camera, camera_buffer, generation: next_generation(), only_scene: false }
+        Self {
+            width,
+            height,
+            depth,
+            normal,
+            geometric_normal: None,
+            camera,
+            camera_buffer,
+            generation: next_generation(),
+            only_scene: false,
+        }
+    }
+
+    /// Gives the facets' own (geometric) normals, facing the camera, beside the shading normals:
+    /// the receiver's horizon (`shaders/horizon.wgsl`) is then the facet's, as the truth's.
+    pub fn set_geometric_normal(&mut self, view: wgpu::TextureView) {
+        self.geometric_normal = Some(view);
+        self.touch();
+    }
+
+    /// The geometric normals, or the shading normals where none were given.
+    pub fn geometric_normal(&self) -> &wgpu::TextureView {
+        self.geometric_normal.as_ref().unwrap_or(&self.normal)
     }
 
     /// Says that the depth buffer shows the scene's instances and nothing else (the `Renderer`'s

@@ -103,6 +103,7 @@ impl Targets {
         let mut surface = SurfaceInputs::new(device, view_of(&depth), view_of(&normal), camera, width, height);
         // The G-buffer draws the scene's instances and nothing else.
         surface.set_shows_only_scene(true);
+        surface.set_geometric_normal(view_of(&geometric_normal));
         let layouts = lighting_layouts(shared);
         let lighting_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lighting"),

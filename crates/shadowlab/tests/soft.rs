@@ -293,7 +293,8 @@ fn soft_maps_keep_below_the_receivers_horizon() {
                 continue;
             }
             relevant += 1;
-            let (p, n) = (run.surface.positions[i], run.surface.normals[i]);
+            // The facet's plane, as the truth's (and the shaders') horizon.
+            let (p, n) = (run.surface.positions[i], run.surface.geometric_normals[i]);
             let k = glam::Vec3::new(
                 (position - p).dot(n),
                 0.5 * width * tangent.normalize().dot(n),
@@ -310,7 +311,7 @@ fn soft_maps_keep_below_the_receivers_horizon() {
         // normals' round-off.
         assert!(above * 500 <= relevant, "{spec}: {above} of {relevant} pixels lighter than their horizon allows");
         if spec == "pcss" {
-            // Measured 0.0921 at 96² against 128 samples (without the horizon 0.1107). Bound: 0.100.
+            // Measured 0.0918 at 96² against 128 samples (without the horizon 0.1107). Bound: 0.100.
             assert!(rmse <= 0.100, "pcss RMSE {rmse}");
         }
     }

@@ -3,8 +3,8 @@
 // which the truth's rays see (DESIGN.md §3: a ray below the tangent plane enters the surface) and
 // a depth map cannot. Since the truth's visible part of the emitter lies inside this one, the
 // minimum of a technique's visibility and this fraction is never farther from the truth than the
-// technique alone, up to the normal: techniques see the G-buffer's shading normal, the truth the
-// facet's, so near the terminators of smooth meshes a few lit pixels darken (0.1% of the bunny's).
+// technique alone, given the facet's own normal (`geometric_normal` of resolve.wgsl; with the
+// shading normal in its place, 0.1% of the bunny's lit pixels darken near its terminators).
 // Taken by `ssm`, `pcss`, `blurred` and `smoothies`; the CPU reference is
 // shadowlab_core::backprojection::fraction_above.
 

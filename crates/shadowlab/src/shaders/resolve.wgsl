@@ -17,6 +17,8 @@ struct Region {
     rect: vec4<u32>,
 };
 @group(0) @binding(5) var<uniform> region: Region;
+// The facets' own normals (the shading normals where the application gave none).
+@group(0) @binding(6) var geometric_normal_texture: texture_2d<f32>;
 
 fn region_pixel(id: vec3<u32>) -> vec2<u32> {
     return id.xy + region.rect.xy;
@@ -24,6 +26,7 @@ fn region_pixel(id: vec3<u32>) -> vec2<u32> {
 
 struct Surface {
     p: vec3<f32>,
+    // The shading normal, and the facet's own (`geometric_normal`), both facing the camera.
     n: vec3<f32>,
     // The depth-buffer value.
     depth: f32,
@@ -43,6 +46,16 @@ fn load_surface(pixel: vec2<u32>) -> Surface {
     s.n = normalize(textureLoad(normal_texture, vec2<i32>(pixel), 0).xyz);
     s.relevant = light_relevant(light, s.p, s.n);
     return s;
+}
+
+// The facet's own normal at a pixel, facing the camera: the plane the truth's rays leave from
+// (DESIGN.md §3). The shading normal where it is missing.
+fn geometric_normal(pixel: vec2<u32>, shading: vec3<f32>) -> vec3<f32> {
+    let g = textureLoad(geometric_normal_texture, vec2<i32>(pixel), 0).xyz;
+    if (!(dot(g, g) > 1.0e-12)) {
+        return shading;
+    }
+    return normalize(g);
 }
 
 fn in_frame(pixel: vec2<u32>) -> bool {

@@ -19,7 +19,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             v = pcf_filter(mp, mp.layer, kernel.params.y, pixel, receiver_plane(mp, s.p, s.n), 0.0);
         }
         // A soft shadow's part the map cannot see: the receiver hiding the emitter (horizon.wgsl).
-        v = min(v, light_horizon(light, s.p, s.n));
+        v = min(v, light_horizon(light, s.p, geometric_normal(pixel, s.n)));
     }
     textureStore(visibility_out, pixel, vec4<f32>(v));
 }

@@ -91,7 +91,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             v = pcss_visibility(mp, s, pixel);
         }
         // The map cannot see the receiver hide part of the emitter from itself (horizon.wgsl).
-        v = min(v, light_horizon(light, s.p, s.n));
+        v = min(v, light_horizon(light, s.p, geometric_normal(pixel, s.n)));
     }
     textureStore(visibility_out, pixel, vec4<f32>(v));
 }

@@ -50,7 +50,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
         // A soft shadow's part the map cannot see: the receiver hiding the emitter (horizon.wgsl).
-        v = min(v, light_horizon(light, s.p, s.n));
+        v = min(v, light_horizon(light, s.p, geometric_normal(id.xy, s.n)));
     }
     textureStore(visibility_out, id.xy, vec4<f32>(v));
 }

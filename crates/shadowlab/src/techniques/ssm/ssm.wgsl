@@ -340,12 +340,6 @@ fn edge_area(disk: bool, a: vec2<f32>, b: vec2<f32>) -> f32 {
     return sign(c) * beyond;
 }
 
-// ---- the receiver's own horizon (horizon.wgsl) ----
-
-fn horizon(px: Pixel) -> f32 {
-    return light_horizon(light, px.p, px.n);
-}
-
 // ---- smooth contour detection (§4.1) ----
 
 // Sample i's centre in a 2 × 2 block's frame: 0 (−½, −½), 1 (½, −½), 2 (½, ½), 3 (−½, ½).
@@ -710,7 +704,7 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.view = mp.layer;
     px.st = mp.uvz.xy * map_params.bias.z;
     px.z = mp.uvz.z;
-    px.g = receiver_plane_gradient(mp, s.p, s.n);
+    px.g = receiver_plane_gradient(mp, s.p, geometric_normal(pixel, s.n));
     px.g1 = abs(px.g.x) + abs(px.g.y);
     let view = shadow_views[px.view];
     px.zd = shadow_distance(view, px.z);
@@ -720,7 +714,8 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.rb = emitter_row(inv, px.p, px.b);
     px.rm = emitter_row(inv, px.p, px.m);
     if (!px.hard) {
-        out.horizon = horizon(px);
+        // The receiver's own horizon, on its facet (horizon.wgsl).
+        out.horizon = light_horizon(light, px.p, geometric_normal(pixel, px.n));
     }
     // The kernel from the nearest depth of the whole map, then tightened by the nearest depth
     // inside it (§3).

@@ -512,16 +512,10 @@ impl ShadowTechnique for Ssm {
             pass.set_bind_group(0, Some(&group0), &[]);
             pass.set_bind_group(1, Some(&lookup), &[]);
             pass.set_bind_group(2, Some(&screen.own), &[]);
-            if std::env::var("SSM_SKIP").is_err() {
-                if self.indirect {
-                    pass.dispatch_workgroups_indirect(&screen.args, 0);
-                } else {
-                    pass.dispatch_workgroups(
-                        (ctx.surface.width * ctx.surface.height).div_ceil(64).min(CPU_GROUPS),
-                        1,
-                        1,
-                    );
-                }
+            if self.indirect {
+                pass.dispatch_workgroups_indirect(&screen.args, 0);
+            } else {
+                pass.dispatch_workgroups((ctx.surface.width * ctx.surface.height).div_ceil(64).min(CPU_GROUPS), 1, 1);
             }
         }
         let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);

@@ -292,7 +292,7 @@ pub fn continuous_level(kernel_texels: f32, t_k: f32) -> f32 {
 /// receiver's tangent plane. The rest is hidden by the receiver itself (the attached shadow near a
 /// terminator), which the truth's rays see and a depth map does not: its own samples are not occluders.
 /// `shaders/horizon.wgsl` (`emitter_above`) mirrors this; `ssm` combines it with the contour's fraction
-/// by the minimum, `pcss` with its filtered fraction. A non-finite `k` hides nothing.
+/// by the minimum, `pcss`, `blurred` and `smoothies` with their filtered fractions. A non-finite `k` hides nothing.
 pub fn fraction_above(emitter: Emitter, k: glam::Vec3) -> f32 {
     if !k.is_finite() {
         // No plane to speak of (a NaN normal): it hides nothing.

@@ -35,41 +35,36 @@ fn emitter_above(disk: bool, k: vec3<f32>) -> f32 {
         let d = clamp(k.x / l, -1.0, 1.0);
         return (3.14159265 - (acos(d) - d * sqrt(max(1.0 - d * d, 0.0)))) / 3.14159265;
     }
-    // The square clipped by the half-plane (one Sutherland–Hodgman step), its area by the shoelace
-    // formula accumulated edge by edge.
+    // Twice the area of the square clipped by the half-plane, by the shoelace formula (Green's
+    // theorem) over its boundary: each side's part inside, then the chord along the cut line from
+    // where the boundary leaves the half-plane to where it enters again (a convex square is cut
+    // at most twice).
     var twice = 0.0;
-    var first = vec2<f32>(0.0);
-    var last = vec2<f32>(0.0);
-    var started = false;
+    var leave = vec2<f32>(0.0);
+    var enter = vec2<f32>(0.0);
+    var cut = false;
     for (var i = 0; i < 4; i = i + 1) {
         let a = square_corner(i + 2);
         let b = square_corner(i + 3);
         let fa = k.x + dot(k.yz, a);
         let fb = k.x + dot(k.yz, b);
-        if (fa >= 0.0) {
-            if (started) {
-                twice = twice + cross2(last, a);
-            } else {
-                first = a;
-                started = true;
-            }
-            last = a;
-        }
         if ((fa >= 0.0) != (fb >= 0.0)) {
             let x = a + (fa / (fa - fb)) * (b - a);
-            if (started) {
-                twice = twice + cross2(last, x);
+            cut = true;
+            if (fa >= 0.0) {
+                twice = twice + cross2(a, x);
+                leave = x;
             } else {
-                first = x;
-                started = true;
+                twice = twice + cross2(x, b);
+                enter = x;
             }
-            last = x;
+        } else if (fa >= 0.0) {
+            twice = twice + cross2(a, b);
         }
     }
-    if (!started) {
-        return 0.0;
+    if (cut) {
+        twice = twice + cross2(leave, enter);
     }
-    twice = twice + cross2(last, first);
     return clamp(0.5 * twice / 4.0, 0.0, 1.0);
 }
 

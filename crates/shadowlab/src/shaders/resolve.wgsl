@@ -26,7 +26,7 @@ fn region_pixel(id: vec3<u32>) -> vec2<u32> {
 
 struct Surface {
     p: vec3<f32>,
-    // The shading normal, and the facet's own (`geometric_normal`), both facing the camera.
+    // The shading normal, facing the camera (the facet's own: `geometric_normal`).
     n: vec3<f32>,
     // The depth-buffer value.
     depth: f32,

@@ -131,6 +131,8 @@ pub(crate) struct Volumes {
     /// Screen-sized buffers and per-sample uniforms.
     state: Option<State>,
     receivers: Option<Receivers>,
+    /// A region's culling against its surface (`cull.wgsl`).
+    cull: Cull,
     /// The last frame's plans (methods, drawn casters, for the draws and the stats).
     plans: Vec<SamplePlan>,
     frames: u64,
@@ -166,6 +168,120 @@ struct State {
     /// Whether the readback holds a frame not yet read.
     readback_pending: bool,
     bytes: u64,
+}
+
+/// The buffers of a region's culling (`cull.wgsl`), grown as needed and kept.
+#[derive(Default)]
+struct Cull {
+    firsts: Option<wgpu::Buffer>,
+    hulls: Option<wgpu::Buffer>,
+    casters: Option<wgpu::Buffer>,
+    /// The store's indirect draws, the casters that miss the region's surface drawing nothing.
+    draws: Option<wgpu::Buffer>,
+}
+
+impl Cull {
+    fn bytes(&self) -> u64 {
+        [&self.firsts, &self.hulls, &self.casters, &self.draws]
+            .iter()
+            .filter_map(|b| b.as_ref())
+            .map(|b| b.size())
+            .sum()
+    }
+
+    /// Writes `inputs` and records the culling of every sample's casters against the region's
+    /// surface, into `draws` (the store's draws, `items` of them per region).
+    fn record(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        group0: &wgpu::BindGroup,
+        inputs: &plan::CullInputs,
+        store: &Store,
+        samples: u32,
+    ) {
+        let device = &ctx.gpu.device;
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let fit = |slot: &mut Option<wgpu::Buffer>, label: &'static str, size: u64, usage: wgpu::BufferUsages| {
+            if slot.as_ref().is_none_or(|b| b.size() < size) {
+                // Doubling: a drag over a changing surface settles on a size.
+                let size = size.next_power_of_two().max(256);
+                *slot = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage,
+                    mapped_at_creation: false,
+                }));
+            }
+        };
+        let hulls: &[u8] = bytemuck::cast_slice(&inputs.hulls);
+        let casters: &[u8] = bytemuck::cast_slice(&inputs.casters);
+        let firsts: &[u8] = bytemuck::cast_slice(&inputs.firsts);
+        fit(&mut self.firsts, "volume cull samples", firsts.len() as u64, storage);
+        fit(&mut self.hulls, "volume cull hulls", hulls.len().max(16) as u64, storage);
+        fit(&mut self.casters, "volume cull casters", casters.len().max(16) as u64, storage);
+        let draws = 48 * u64::from(store.items());
+        if self.draws.as_ref().is_some_and(|b| b.size() != draws) {
+            self.draws = None;
+        }
+        fit(&mut self.draws, "volume culled draws", draws, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT);
+        let (Some(f), Some(h), Some(c), Some(d)) = (&self.firsts, &self.hulls, &self.casters, &self.draws) else {
+            return;
+        };
+        let queue = &ctx.gpu.queue;
+        queue.write_buffer(f, 0, firsts);
+        if !hulls.is_empty() {
+            queue.write_buffer(h, 0, hulls);
+        }
+        if !casters.is_empty() {
+            queue.write_buffer(c, 0, casters);
+        }
+        let shared = ctx.shared;
+        let layout = cull_layout(shared);
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("volume cull"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: f.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: h.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: c.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &store.counters,
+                        offset: 0,
+                        size: std::num::NonZeroU64::new(draws),
+                    }),
+                },
+                wgpu::BindGroupEntry { binding: 4, resource: d.as_entire_binding() },
+            ],
+        });
+        let pipeline = shared.resolve_pipeline("volumes cull", include_str!("cull.wgsl"), "cull", &[&layout], &[]);
+        let timestamps = ctx.timer.compute_pass(device, PassKind::Shadow);
+        let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("volume cull"),
+            timestamp_writes: timestamps,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, Some(group0), &[]);
+        pass.set_bind_group(1, Some(&group), &[]);
+        pass.dispatch_workgroups(samples, 1, 1);
+    }
+}
+
+fn cull_layout(shared: &Shared) -> wgpu::BindGroupLayout {
+    shared.layout("volumes cull", || {
+        let c = wgpu::ShaderStages::COMPUTE;
+        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("volumes cull"),
+            entries: &[
+                storage_entry(0, c, true),
+                storage_entry(1, c, true),
+                storage_entry(2, c, true),
+                storage_entry(3, c, true),
+                storage_entry(4, c, false),
+            ],
+        })
+    })
 }
 
 /// Receiver cropping (Toromanoff 2005 alg. 12, NOTES-000 §K): the receivers' model matrices, their
@@ -283,6 +399,7 @@ impl Volumes {
             store: None,
             state: None,
             receivers: None,
+            cull: Cull::default(),
             plans: Vec::new(),
             frames: 0,
             stats: VolumeStats::default(),
@@ -1024,6 +1141,44 @@ impl ShadowTechnique for Volumes {
         if measure {
             ctx.encoder.clear_buffer(&state.fill, 0, None);
         }
+        // In a region, only the casters whose volumes reach it: by the region's frustum here, then
+        // by the surface actually seen there, on the GPU (`cull.wgsl`), unless a robust z-pass
+        // counted its start over the plan's casters.
+        let in_region: Option<Vec<Vec<plan::Drawn>>> = region.map(|rect| {
+            let extent = ctx.surface.shows_only_scene().then(|| ctx.live.surface_bounds());
+            self.plans
+                .iter()
+                .enumerate()
+                .map(|(i, plan)| {
+                    let source = LightSource::of_sample(self.samples[i].sample);
+                    plan::region_casters(
+                        plan,
+                        &camera,
+                        &source,
+                        &self.casters,
+                        &store.slot_of,
+                        rect,
+                        size,
+                        extent.as_ref(),
+                    )
+                })
+                .collect()
+        });
+        let culled = match &in_region {
+            Some(lists) if self.plans.iter().any(|p| !p.robust && p.method != Method::Skip) => {
+                let mut inputs = plan::CullInputs::new(store.items());
+                for (i, (plan, drawn)) in self.plans.iter().zip(lists).enumerate() {
+                    let source = LightSource::of_sample(self.samples[i].sample);
+                    let drawn: &[plan::Drawn] = if plan.robust { &[] } else { drawn };
+                    inputs.push_sample(plan, &source, &self.casters, &store.slot_of, drawn, |slot| {
+                        store.item(i as u32, slot)
+                    });
+                }
+                self.cull.record(ctx, &group0, &inputs, store, self.plans.len() as u32);
+                self.cull.draws.as_ref()
+            }
+            _ => None,
+        };
         let mut draws = 0;
         for (i, plan) in self.plans.iter().enumerate() {
             let pass_offset = (i as u64 * state.pass_stride) as u32;
@@ -1074,27 +1229,8 @@ impl ShadowTechnique for Volumes {
                     && scissor_to(&mut pass, region, plan.scissor.or(focus_scissor))
                 {
                     pass.set_vertex_buffer(0, store.vertices().slice(..));
-                    // In a region, only the casters whose volumes reach it.
-                    let in_region;
-                    let casters = match region {
-                        Some(rect) => {
-                            let source = LightSource::of_sample(self.samples[i].sample);
-                            let (casters, slots) = (&self.casters, &store.slot_of);
-                            let extent = ctx.surface.shows_only_scene().then(|| ctx.live.surface_bounds());
-                            in_region = plan::region_casters(
-                                plan,
-                                &camera,
-                                &source,
-                                casters,
-                                slots,
-                                rect,
-                                size,
-                                extent.as_ref(),
-                            );
-                            &in_region
-                        }
-                        None => &plan.casters,
-                    };
+                    let casters = in_region.as_ref().map_or(&plan.casters, |lists| &lists[i]);
+                    let indirect = culled.filter(|_| !plan.robust).unwrap_or(&store.counters);
                     // The drawn casters' regions, as runs of consecutive slots: one multi-draw each.
                     let all = runs(casters.iter().map(|d| d.slot));
                     let listed = runs(casters.iter().filter(|d| d.zp_listed).map(|d| d.slot));
@@ -1107,7 +1243,7 @@ impl ShadowTechnique for Volumes {
                     let base = store.item(i as u32, 0);
                     let record = |pass: &mut wgpu::RenderPass<'_>, region: u64, only_listed: bool| {
                         for &(first, count) in if only_listed { &listed } else { &all } {
-                            pass.multi_draw_indirect(&store.counters, store.draw_offset(region, base + first), count);
+                            pass.multi_draw_indirect(indirect, store.draw_offset(region, base + first), count);
                         }
                     };
                     for &(vertex, counting, region, only_listed) in list {
@@ -1284,7 +1420,7 @@ impl ShadowTechnique for Volumes {
         let store = self.store.as_ref().map_or(0, |s| s.bytes);
         let receivers = self.receivers.as_ref().map_or(0, |r| r.instances.size() + r.map.bytes());
         TechniqueStats {
-            memory_bytes: state.bytes + store + receivers + topology,
+            memory_bytes: state.bytes + store + receivers + topology + self.cull.bytes(),
             passes: if self.mask_only { 2 * n } else { 3 * n + u32::from(n > 1) },
             draws: self.stats.draws,
             triangles: self.stats.triangles.unwrap_or(0),

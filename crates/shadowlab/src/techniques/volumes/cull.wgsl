@@ -1,0 +1,134 @@
+// A drag step's region (FrameContext::region): which casters' volumes can change its count.
+//
+// A closed volume that holds no surface point of the region adds nothing to any of its pixels'
+// counts (z-fail counts the volumes behind the surface, z-pass and ZP+ the ones between the near
+// plane and it), unless it reaches the pyramid of the eye and the region's near rectangle, where
+// the counts start: the CPU keeps those (`plan::cull_inputs`, flag KEEP). One workgroup per light
+// sample bounds the region's relevant surface points (the only pixels whose resolve reads the
+// mask) and tests that box against each caster's shadow hulls (shadowlab_core::volumes::
+// shadow_hull of its box and of its triangles' parts), writing the sample's indirect draws with
+// the casters that miss it set to no instance. The CPU's own test (`plan::region_casters`) can
+// only use the region's frustum; this one sees the surface that is actually there.
+
+// #include "resolve.wgsl"
+
+// The half-spaces n·p + w ≥ 0 bounding a caster's volumes; `count` 0: unbounded (the light is
+// in its box).
+struct Hull {
+    planes: array<vec4<f32>, 10>,
+    count: vec4<u32>,
+};
+
+// One (sample, caster) to test: x its item in the store, y its first hull (its box's), z the
+// hulls of its parts that follow, w flags.
+struct CullCaster {
+    data: vec4<u32>,
+};
+
+const KEEP: u32 = 1u;
+
+// `firsts[0]`: items in the store (the stride between the draws of two regions); light sample s
+// (workgroup s) tests `casters[firsts[s + 1] .. firsts[s + 2]]`.
+@group(1) @binding(0) var<storage, read> firsts: array<u32>;
+@group(1) @binding(1) var<storage, read> hulls: array<Hull>;
+@group(1) @binding(2) var<storage, read> casters: array<CullCaster>;
+@group(1) @binding(3) var<storage, read> draws_in: array<u32>;
+@group(1) @binding(4) var<storage, read_write> draws_out: array<u32>;
+
+const GROUP: u32 = 64u;
+var<workgroup> box_min: array<atomic<u32>, 3>;
+var<workgroup> box_max: array<atomic<u32>, 3>;
+var<workgroup> reach: atomic<u32>;
+
+// An order-preserving map of f32 onto u32 (negative values reversed below the positive ones).
+fn ordered(x: f32) -> u32 {
+    let b = bitcast<u32>(x);
+    return select(b | 0x80000000u, ~b, (b & 0x80000000u) != 0u);
+}
+
+fn unordered(u: u32) -> f32 {
+    return bitcast<f32>(select(~u, u & 0x7fffffffu, (u & 0x80000000u) != 0u));
+}
+
+// Whether some point of the box (centre c, half extent h) may lie inside the hull.
+fn meets(hull: u32, c: vec3<f32>, h: vec3<f32>) -> bool {
+    let n = hulls[hull].count.x;
+    for (var i = 0u; i < n; i = i + 1u) {
+        let pl = hulls[hull].planes[i];
+        if (dot(pl.xyz, c) + dot(abs(pl.xyz), h) + pl.w < 0.0) {
+            return false;
+        }
+    }
+    return true;
+}
+
+@compute @workgroup_size(64)
+fn cull(@builtin(local_invocation_index) t: u32, @builtin(workgroup_id) wg: vec3<u32>) {
+    if (t < 3u) {
+        atomicStore(&box_min[t], 0xffffffffu);
+        atomicStore(&box_max[t], 0u);
+    }
+    if (t == 0u) {
+        atomicStore(&reach, 0u);
+    }
+    workgroupBarrier();
+    let size = region.rect.zw;
+    let pixels = size.x * size.y;
+    var far = 0.0;
+    for (var k = t; k < pixels; k = k + GROUP) {
+        let pixel = region.rect.xy + vec2<u32>(k % size.x, k / size.x);
+        if (!in_frame(pixel)) {
+            continue;
+        }
+        let s = load_surface(pixel);
+        if (!s.relevant) {
+            continue;
+        }
+        far = max(far, distance(s.p, camera.position.xyz));
+        for (var a = 0u; a < 3u; a = a + 1u) {
+            atomicMin(&box_min[a], ordered(s.p[a]));
+            atomicMax(&box_max[a], ordered(s.p[a]));
+        }
+    }
+    atomicMax(&reach, ordered(far));
+    workgroupBarrier();
+    var lo = vec3<f32>(0.0);
+    var hi = vec3<f32>(0.0);
+    for (var a = 0u; a < 3u; a = a + 1u) {
+        lo[a] = unordered(atomicLoad(&box_min[a]));
+        hi[a] = unordered(atomicLoad(&box_max[a]));
+    }
+    let empty = atomicLoad(&box_min[0]) == 0xffffffffu;
+    // The depth buffer's round-off and the reconstruction's: 1e-4 of the distance to the eye on
+    // every axis (reversed-Z f32 depth holds about 1e-6 of it).
+    let pad = vec3<f32>(1.0e-4 * unordered(atomicLoad(&reach)) + 1.0e-6);
+    let c = 0.5 * (lo + hi);
+    let h = 0.5 * (hi - lo) + pad;
+    let which = wg.x;
+    let items = firsts[0];
+    for (var k = firsts[which + 1u] + t; k < firsts[which + 2u]; k = k + GROUP) {
+        let d = casters[k].data;
+        var keep = (d.w & KEEP) != 0u;
+        if (!keep && !empty) {
+            keep = meets(d.y, c, h);
+            if (keep && d.z > 0u) {
+                keep = false;
+                for (var p = 0u; p < d.z; p = p + 1u) {
+                    if (meets(d.y + 1u + p, c, h)) {
+                        keep = true;
+                        break;
+                    }
+                }
+            }
+        }
+        // Sides, light caps and dark caps: draws of 4 words (vertex count, instances, first
+        // vertex, first instance), one region after the other.
+        for (var r = 0u; r < 3u; r = r + 1u) {
+            let at = 4u * (r * items + d.x);
+            draws_out[at] = draws_in[at];
+            draws_out[at + 1u] = select(0u, draws_in[at + 1u], keep);
+            draws_out[at + 2u] = draws_in[at + 2u];
+            draws_out[at + 3u] = draws_in[at + 3u];
+        }
+    }
+}

@@ -143,7 +143,7 @@ impl SceneBvh {
 
     /// The instances `keep` accepts (the static casters of a light mesh, for instance).
     pub fn build_filtered(scene: &Scene, keep: impl Fn(&Instance) -> bool) -> Self {
-        let start = std::time::Instant::now();
+        let start = web_time::Instant::now();
         let mut triangles = Vec::new();
         for (i, inst) in scene.instances.iter().enumerate() {
             if !keep(inst) {

@@ -105,7 +105,9 @@ fn wanted_features() -> wgpu::Features {
 }
 
 impl Gpu {
-    /// Finds an adapter by `choice` and opens a device on it (blocking).
+    /// Finds an adapter by `choice` and opens a device on it (blocking: native only; a web page
+    /// awaits [`Gpu::new_async`]).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn new(choice: BackendChoice) -> Result<Self, GpuError> {
         pollster::block_on(Self::new_async(choice))
     }
@@ -206,7 +208,8 @@ impl Gpu {
         }
     }
 
-    /// Blocks until all submitted work has finished.
+    /// Blocks until all submitted work has finished (native only).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn wait(&self) {
         // A poll error means the device was lost; the next use reports it.
         let _ = self.device.poll(wgpu::PollType::wait_indefinitely());

@@ -2,15 +2,19 @@
 //! embedded [`Shadows`]), additive lighting and tone mapping, with readbacks for the reference and
 //! the reports.
 
-use std::time::Instant;
+use web_time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
-use shadowlab_core::{LightId, Scene, SurfaceBuffer, View};
+#[cfg(not(target_arch = "wasm32"))]
+use shadowlab_core::SurfaceBuffer;
+use shadowlab_core::{LightId, Scene, View};
 
 use crate::context::Shared;
 use crate::frame::{CameraUniform, SurfaceInputs, VisibilityLayer};
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
+#[cfg(not(target_arch = "wasm32"))]
+use crate::gpu::GpuError;
 use crate::gpu_scene::{INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
 use crate::live::{Applied, Edit, EditError, Work};
 use crate::registry::TechniqueSpec;
@@ -202,8 +206,21 @@ impl Renderer {
         self.shadows.set_technique(light, spec, self.width, self.height)
     }
 
-    /// Renders one frame and waits for it; returns its timings.
-    pub fn render(&mut self) -> Result<FrameReport, TechniqueError> {
+    /// Records and submits one frame without waiting for it (what a browser's frame callback
+    /// calls: nothing here blocks); returns what the frame re-did. The scheduler learns from
+    /// [`Renderer::observe`]'s frame times instead of timestamps read back.
+    pub fn frame(&mut self) -> Result<Work, TechniqueError> {
+        let (work, _) = self.record_frame()?;
+        Ok(work)
+    }
+
+    /// Tells the scheduler what the last frame submitted by [`Renderer::frame`] cost (the
+    /// application's own clock, milliseconds).
+    pub fn observe(&mut self, work: &Work, frame_ms: f64) {
+        self.shadows.observe_measured(work, f64::NAN, frame_ms);
+    }
+
+    fn record_frame(&mut self) -> Result<(Work, Instant), TechniqueError> {
         let start = Instant::now();
         self.timer.begin_frame();
         let device = self.gpu.device.clone();
@@ -214,6 +231,13 @@ impl Renderer {
         let work = self.shadows.record(&mut encoder, &self.targets.surface, &mut self.timer)?;
         self.lighting_passes(&mut encoder, None);
         self.gpu.queue.submit([encoder.finish()]);
+        Ok((work, start))
+    }
+
+    /// Renders one frame and waits for it; returns its timings (native only: it blocks).
+    #[cfg(not(target_arch = "wasm32"))]
+    pub fn render(&mut self) -> Result<FrameReport, TechniqueError> {
+        let (work, start) = self.record_frame()?;
         self.gpu.wait();
         if let Some(e) = self.gpu.take_error() {
             return Err(TechniqueError::Failed { id: "frame".into(), message: format!("GPU error: {e}") });
@@ -369,6 +393,7 @@ impl Renderer {
     }
 
     /// The final image as tightly packed sRGB RGB bytes.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn read_image(&self) -> Result<Vec<u8>, GpuError> {
         let rgba = util::read_texture(&self.gpu.device, &self.gpu.queue, &self.targets.output, 4)?;
         Ok(rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
@@ -381,6 +406,7 @@ impl Renderer {
     }
 
     /// A light's visibility layer as floats (row-major, top row first).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn read_visibility(&self, light: LightId) -> Result<Option<Vec<f32>>, GpuError> {
         match self.shadows.lights.iter().find(|s| s.light == light) {
             Some(s) => {
@@ -393,6 +419,7 @@ impl Renderer {
     /// The visibility a fresh, uncached engine on the same state (scene, techniques, size) gives on
     /// the last rendered frame's surface, per shadowed light **index** (`scene().lights[i]`): what
     /// the live engine must equal (DESIGN.md §11, "never stale").
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn fresh_visibility(&self) -> Result<Vec<(usize, Vec<f32>)>, TechniqueError> {
         let fail = |e: GpuError| TechniqueError::Failed { id: "fresh".into(), message: e.to_string() };
         let mut fresh = self.shadows.fresh()?;
@@ -411,6 +438,7 @@ impl Renderer {
     }
 
     /// The visibility of every shadowed light, by light index (as [`Renderer::fresh_visibility`]).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn live_visibility(&self) -> Result<Vec<(usize, Vec<f32>)>, GpuError> {
         let mut out = Vec::new();
         for s in &self.shadows.lights {
@@ -423,6 +451,7 @@ impl Renderer {
 
     /// The surface the techniques shade: positions (in the scene's local frame) reconstructed from
     /// depth exactly as their shaders do, the G-buffer normals and the facets' normals.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn read_surface(&self) -> Result<SurfaceBuffer, GpuError> {
         let device = &self.gpu.device;
         let n = u64::from(self.width) * u64::from(self.height);
@@ -494,6 +523,7 @@ impl Renderer {
 
     /// Relights the current G-buffer with the given visibility per light (NaN counts as 1) and
     /// returns the image: how the frame looks with, say, the reference's shadows.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn image_with_visibility(&mut self, layers: &[(LightId, &[f32])]) -> Result<Vec<u8>, GpuError> {
         let device = self.gpu.device.clone();
         let uploaded: Vec<(LightId, VisibilityLayer)> = layers
@@ -722,6 +752,7 @@ pub struct MapOverlay {
 impl Renderer {
     /// Shadow-volume fragments per pixel of the first rendered frame, summed over `lights`
     /// (Hasselgren 2003 Fig. 8's overdraw); `None` when none of their techniques draws volumes.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn fill_counts(&self, lights: &[LightId]) -> Result<Option<Vec<u32>>, GpuError> {
         let pixels = self.width as usize * self.height as usize;
         let mut total: Option<Vec<u32>> = None;
@@ -747,6 +778,7 @@ impl Renderer {
     /// Analyses the maps of `light`'s technique for the last rendered frame; `None` when the
     /// technique does not shade from one map per pixel (`none`, `sampled`). `grid` is the spacing of
     /// the texel-grid lines in texels.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn map_overlay(&self, light: LightId, grid: u32) -> Result<Option<MapOverlay>, GpuError> {
         let Some(s) = self.shadows.lights.iter().find(|s| s.light == light) else { return Ok(None) };
         let Some(maps) = s.shown_technique().analysis() else { return Ok(None) };

@@ -42,6 +42,7 @@ impl FrameTimes {
         }
     }
 
+    #[cfg(not(target_arch = "wasm32"))]
     fn add(&mut self, kind: PassKind, ms: f64) {
         match kind {
             PassKind::Gbuffer => self.gbuffer += ms,
@@ -65,13 +66,15 @@ pub struct GpuTimer {
     sets: Vec<wgpu::QuerySet>,
     /// The kind of each pass, in query order (pass k uses queries 2k and 2k + 1).
     passes: Vec<PassKind>,
+    #[cfg_attr(target_arch = "wasm32", allow(dead_code))]
     period_ns: f64,
 }
 
 impl GpuTimer {
     pub fn new(gpu: &crate::gpu::Gpu) -> Self {
         Self {
-            enabled: gpu.timestamps,
+            // Timestamps are read back by blocking (`read`): native only.
+            enabled: gpu.timestamps && cfg!(not(target_arch = "wasm32")),
             sets: Vec::new(),
             passes: Vec::new(),
             period_ns: f64::from(gpu.queue.get_timestamp_period()),
@@ -129,6 +132,7 @@ impl GpuTimer {
     }
 
     /// Resolves this frame's queries (after its last pass) and reads them back (blocking).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn read(&mut self, gpu: &crate::gpu::Gpu) -> Result<Option<FrameTimes>, crate::gpu::GpuError> {
         if !self.enabled || self.passes.is_empty() {
             return Ok(None);

@@ -2,6 +2,7 @@
 
 use wgpu::util::DeviceExt;
 
+#[cfg(not(target_arch = "wasm32"))]
 use crate::gpu::GpuError;
 
 pub fn uniform_buffer(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
@@ -25,7 +26,9 @@ pub fn groups(n: u32, size: u32) -> u32 {
     n.div_ceil(size)
 }
 
-/// Reads a whole 2D texture (mip 0, layer 0) back as tightly packed bytes.
+/// Reads a whole 2D texture (mip 0, layer 0) back as tightly packed bytes (blocking: native only,
+/// since a browser runs map callbacks only when control returns to it).
+#[cfg(not(target_arch = "wasm32"))]
 pub fn read_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -68,7 +71,8 @@ pub fn read_texture(
     Ok(out)
 }
 
-/// Reads a buffer back (blocking).
+/// Reads a buffer back (blocking: native only).
+#[cfg(not(target_arch = "wasm32"))]
 pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, source: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
     let buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
@@ -82,7 +86,8 @@ pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, source: &wgpu::Bu
     map_read(device, &buffer)
 }
 
-/// Maps a `MAP_READ` buffer and copies its contents out (blocking).
+/// Maps a `MAP_READ` buffer and copies its contents out (blocking: native only).
+#[cfg(not(target_arch = "wasm32"))]
 pub fn map_read(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
     let (tx, rx) = std::sync::mpsc::channel();
     buffer.map_async(wgpu::MapMode::Read, .., move |r| {

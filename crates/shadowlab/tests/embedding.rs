@@ -49,3 +49,32 @@ fn camera_uniform_recovers_the_view() {
         assert!((v.far - view.far).abs() < 0.02 * view.far, "{} vs {}", v.far, view.far);
     }
 }
+
+/// The web's frame path (`Renderer::frame`: record and submit, no wait, no readback) draws what the
+/// blocking `render` draws: after the same frames, every light's visibility and the image are
+/// equal, and a frame keeps its work counts (the second still frame re-does nothing).
+#[test]
+fn a_frame_that_does_not_wait_draws_what_render_draws() {
+    let gpu = common::gpu();
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let spec = shadowlab::TechniqueSpec::parse("pcf:map_size=512", &[]).unwrap();
+    let make = || {
+        let mut r = shadowlab::Renderer::new(&gpu, scene.clone(), &view, 64, 48);
+        for i in 0..scene.lights.len() {
+            r.set_technique(shadowlab_core::LightId(i as u32), &spec).unwrap();
+        }
+        r
+    };
+    let (mut waiting, mut free) = (make(), make());
+    waiting.render().unwrap();
+    let first = free.frame().unwrap();
+    assert!(first.map_views > 0, "the first frame renders the maps: {first:?}");
+    waiting.render().unwrap();
+    let second = free.frame().unwrap();
+    free.observe(&second, 1.0);
+    assert_eq!((second.map_views, second.resolves), (0, 0), "a still frame re-does nothing: {second:?}");
+    // Readbacks wait for the submitted frames (native only).
+    assert_eq!(waiting.live_visibility().unwrap(), free.live_visibility().unwrap());
+    assert_eq!(waiting.read_image().unwrap(), free.read_image().unwrap());
+}

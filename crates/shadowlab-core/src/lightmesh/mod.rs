@@ -31,7 +31,7 @@
 pub mod clip;
 pub mod file;
 
-use std::time::Instant;
+use web_time::Instant;
 
 use glam::{Vec3, Vec4};
 use rustc_hash::FxHashMap;

@@ -939,7 +939,9 @@ impl Volumes {
     }
 
     /// Reads the statistics the first frame left in the readback buffer (blocking, once): the fill,
-    /// and the triangles of the regions each plan drew.
+    /// and the triangles of the regions each plan drew. Native only: a browser cannot wait for a
+    /// readback, so a web build reports no fill or triangles.
+    #[cfg(not(target_arch = "wasm32"))]
     fn read_stats(&mut self, device: &wgpu::Device) {
         let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
         if !state.readback_pending {
@@ -998,6 +1000,7 @@ impl ShadowTechnique for Volumes {
     }
 
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        #[cfg(not(target_arch = "wasm32"))]
         self.read_stats(&ctx.gpu.device);
         let size = (ctx.surface.width, ctx.surface.height);
         let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
@@ -1094,7 +1097,8 @@ impl ShadowTechnique for Volumes {
         let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
         let shared = ctx.shared;
         let device = &ctx.gpu.device;
-        let measure = self.frames == 0;
+        // The first frame's statistics, read back (blocking) at the next: native only.
+        let measure = self.frames == 0 && cfg!(not(target_arch = "wasm32"));
         let clamp = device.features().contains(wgpu::Features::DEPTH_CLIP_CONTROL);
         let parity = self.settings.parity;
         let crop = self.crop;

@@ -281,6 +281,7 @@ impl Store {
     }
 
     /// Word index (in [`Store::counters`]) of counter `r` of `item` (3: refused reservations).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn count_word(&self, item: u32, r: u32) -> usize {
         (12 * self.items() + 4 * item + r) as usize
     }

@@ -18,6 +18,7 @@ const SHARED: &[(&str, &str)] = &[
     ("pcfkernel.wgsl", include_str!("shaders/pcfkernel.wgsl")),
     ("selection.wgsl", include_str!("shaders/selection.wgsl")),
     ("samples.wgsl", include_str!("shaders/samples.wgsl")),
+    ("patches.wgsl", include_str!("shaders/patches.wgsl")),
     ("volumes_common.wgsl", include_str!("techniques/volumes/common.wgsl")),
 ];
 

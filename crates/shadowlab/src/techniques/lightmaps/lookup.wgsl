@@ -3,24 +3,7 @@
 // wrapped technique wrote.
 
 // #include "resolve.wgsl"
-
-struct Patch {
-    // xyz: the rectangle's corner; w: its width.
-    origin: vec4<f32>,
-    // xyz: width axis; w: height.
-    axis_u: vec4<f32>,
-    // xyz: height axis; w: the texture layer.
-    axis_v: vec4<f32>,
-    // xyz: the receiving side's normal; w: the plane's offset (n · p).
-    plane: vec4<f32>,
-    // x, y: texels across width and height; z: the plane tolerance (world units); w: 1 if filled.
-    texels: vec4<f32>,
-};
-
-struct Patches {
-    // x: patches; y, z: the texture layers' size in texels.
-    count: vec4<f32>,
-};
+// #include "patches.wgsl"
 
 @group(1) @binding(0) var<uniform> patch_count: Patches;
 @group(1) @binding(1) var<storage, read> patches: array<Patch>;
@@ -39,23 +22,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let n = u32(patch_count.count.x + 0.5);
     for (var k = 0u; k < n; k = k + 1u) {
-        let pa = patches[k];
-        if (pa.texels.w < 0.5 || abs(dot(pa.plane.xyz, s.p) - pa.plane.w) > pa.texels.z || dot(s.n, pa.plane.xyz) < 0.5) {
+        let t = patch_texel(patches[k], s.p, s.n);
+        if (t.x < 0.0) {
             continue;
         }
-        let d = s.p - pa.origin.xyz;
-        let u = dot(d, pa.axis_u.xyz);
-        let v = dot(d, pa.axis_v.xyz);
-        if (u < 0.0 || v < 0.0 || u > pa.origin.w || v > pa.axis_u.w) {
-            continue;
-        }
-        // Texel coordinates, kept half a texel inside the patch so that bilinear taps stay on it.
-        let t = clamp(
-            vec2<f32>(u / pa.origin.w * pa.texels.x, v / pa.axis_u.w * pa.texels.y),
-            vec2<f32>(0.5),
-            pa.texels.xy - vec2<f32>(0.5),
-        );
-        let m = textureSampleLevel(light_maps, light_map_sampler, t / patch_count.count.yz, i32(pa.axis_v.w + 0.5), 0.0);
+        let m = textureSampleLevel(light_maps, light_map_sampler, t / patch_count.count.yz, i32(patches[k].axis_v.w + 0.5), 0.0);
         let v_out = select(0.0, m.x / m.y, m.y > 0.0);
         textureStore(visibility_out, pixel, vec4<f32>(clamp(v_out, 0.0, 1.0)));
         return;

@@ -12,6 +12,28 @@
 
 // #include "resolve.wgsl"
 
+// Under a wrapper that overwrites some pixels after this resolve (`lightmaps`' filled receivers:
+// `technique::Covered`), those pixels' counts do not matter and their surface is left out.
+// #ifdef COVERED
+// #include "patches.wgsl"
+@group(2) @binding(0) var<uniform> covered_count: Patches;
+@group(2) @binding(1) var<storage, read> covered_patches: array<Patch>;
+
+fn covered(s: Surface) -> bool {
+    let n = u32(covered_count.count.x + 0.5);
+    for (var k = 0u; k < n; k = k + 1u) {
+        if (patch_texel(covered_patches[k], s.p, s.n).x >= 0.0) {
+            return true;
+        }
+    }
+    return false;
+}
+// #else
+fn covered(s: Surface) -> bool {
+    return false;
+}
+// #endif
+
 // The half-spaces n·p + w ≥ 0 bounding a caster's volumes; `count` 0: unbounded (the light is
 // in its box).
 struct Hull {
@@ -81,7 +103,7 @@ fn cull(@builtin(local_invocation_index) t: u32, @builtin(workgroup_id) wg: vec3
             continue;
         }
         let s = load_surface(pixel);
-        if (!s.relevant) {
+        if (!s.relevant || covered(s)) {
             continue;
         }
         far = max(far, distance(s.p, camera.position.xyz));

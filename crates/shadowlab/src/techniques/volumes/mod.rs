@@ -50,7 +50,9 @@ use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
 use crate::shadowmap::lookup_layout;
-use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, scissor_to};
+use crate::technique::{
+    Covered, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, scissor_to,
+};
 use crate::timing::PassKind;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -195,6 +197,7 @@ impl Cull {
         &mut self,
         ctx: &mut FrameContext<'_>,
         group0: &wgpu::BindGroup,
+        covered: Option<&Covered<'_>>,
         inputs: &plan::CullInputs,
         store: &Store,
         samples: u32,
@@ -255,7 +258,18 @@ impl Cull {
                 wgpu::BindGroupEntry { binding: 4, resource: d.as_entire_binding() },
             ],
         });
-        let pipeline = shared.resolve_pipeline("volumes cull", include_str!("cull.wgsl"), "cull", &[&layout], &[]);
+        let source = include_str!("cull.wgsl");
+        let pipeline = match covered {
+            Some(_) => shared.resolve_pipeline_with(
+                "volumes cull covered",
+                source,
+                "cull",
+                &[&layout, &crate::context::covered_layout(shared)],
+                &[],
+                &["COVERED"],
+            ),
+            None => shared.resolve_pipeline("volumes cull", source, "cull", &[&layout], &[]),
+        };
         let timestamps = ctx.timer.compute_pass(device, PassKind::Shadow);
         let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("volume cull"),
@@ -264,6 +278,9 @@ impl Cull {
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, Some(group0), &[]);
         pass.set_bind_group(1, Some(&group), &[]);
+        if let Some(c) = covered {
+            pass.set_bind_group(2, Some(c.group), &[]);
+        }
         pass.dispatch_workgroups(samples, 1, 1);
     }
 }
@@ -990,110 +1007,10 @@ fn method_draws(method: &Method) -> &'static [(&'static str, Counting, u64, bool
     }
 }
 
-impl ShadowTechnique for Volumes {
-    fn id(&self) -> &'static str {
-        INFO.id
-    }
-
-    fn params(&self) -> &ParamSet {
-        &self.params
-    }
-
-    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
-        #[cfg(not(target_arch = "wasm32"))]
-        self.read_stats(&ctx.gpu.device);
-        let size = (ctx.surface.width, ctx.surface.height);
-        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
-        if emitter != self.emitter_version {
-            // The light moved or changed size: new samples (and new buffers when their count
-            // changed). The store's items record the emitter version: they re-extract.
-            let samples = volume_samples(&self.params, ctx.light);
-            if let Some(state) = &self.state
-                && state.samples == samples.len()
-            {
-                write_samples(&ctx.gpu.queue, &state.sample_buffer, state.sample_stride, &samples);
-            }
-            self.samples = samples;
-            self.emitter_version = emitter;
-        }
-        let topology = self.topology.get_or_insert_with(|| VolumeTopology::shared(ctx.shared, ctx.scene)).clone();
-        if self.caster_epoch != Some(ctx.live.epoch()) {
-            // The scene changed: take its casters and receivers as they are now, in the same buffers
-            // when they fit (each caster keeps its slot, and its volumes while it stands still).
-            self.casters = Caster::all(ctx.live, &topology);
-            let set = self.caster_set;
-            self.casters.retain(|c| set.keeps(c.mobility));
-            self.caster_bounds = caster_bounds(&self.casters);
-            self.caster_epoch = Some(ctx.live.epoch());
-            if let Some(store) = &mut self.store
-                && !store.place(ctx, &topology, &self.casters)
-            {
-                store.forget_all(ctx);
-                self.store = None;
-            }
-            if let Some(r) = &mut self.receivers
-                && !r.refresh(ctx)
-            {
-                if let Some(maps) = &r.map.maps {
-                    maps.forget_items(ctx);
-                }
-                self.receivers = None;
-            }
-        }
-        let sources: Vec<LightSource> = self.samples.iter().map(|s| LightSource::of_sample(s.sample)).collect();
-        let point = matches!(sources.first(), Some(LightSource::Point(_)));
-        if let Some(store) = &self.store
-            && !store.fits_samples(sources.len() as u32, point)
-        {
-            store.forget_all(ctx);
-            self.store = None;
-        }
-        let store = match &mut self.store {
-            Some(store) => store,
-            None => self.store.insert(Store::new(ctx, &topology, &self.casters, sources.len() as u32, point)),
-        };
-        store.extract(ctx, &topology, &self.casters, &sources)?;
-        if self.state.as_ref().is_none_or(|s| s.size != size || s.samples != self.samples.len()) {
-            self.state = Some(self.build_state(ctx));
-        }
-        if self.crop && self.receivers.is_none() {
-            self.receivers = Some(Receivers::new(ctx, &self.params));
-        }
-        if let Some(r) = &mut self.receivers {
-            r.map.update(ctx)?;
-        }
-        let (Some(state), Some(store)) = (&self.state, &self.store) else { return Ok(()) };
-        let camera = volume_camera(ctx);
-        if self.settings.focus {
-            self.focus_spheres = focus_spheres(ctx.live);
-        }
-        let frame = FrameView {
-            camera: &camera,
-            width: size.0,
-            height: size.1,
-            range: ctx.light.range,
-            casters: &self.casters,
-            slots: &store.slot_of,
-            topology: &topology,
-            bounds: &self.caster_bounds,
-            focus: &self.focus_spheres,
-        };
-        let volume_matrix = camera.volume_matrix();
-        self.plans.clear();
-        for (i, &source) in sources.iter().enumerate() {
-            let plan = plan::plan(&self.settings, &frame, source);
-            let (zp_matrix, zp_origin) = match plan.method {
-                Method::ZpPlus(zp) => (zp.matrix, zp.origin.extend(1.0)),
-                _ => (Mat4::IDENTITY, Vec4::ZERO),
-            };
-            let uniform = PassUniform { volume_matrix, zp_matrix, zp_origin };
-            ctx.gpu.queue.write_buffer(&state.pass_buffer, i as u64 * state.pass_stride, bytemuck::bytes_of(&uniform));
-            self.plans.push(plan);
-        }
-        Ok(())
-    }
-
-    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+impl Volumes {
+    /// The resolve; with `covered`, the pixels a wrapper overwrites afterwards are left out of a
+    /// region's culling.
+    fn resolve_with(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer, covered: Option<&Covered<'_>>) {
         let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
         let shared = ctx.shared;
         let device = &ctx.gpu.device;
@@ -1178,7 +1095,7 @@ impl ShadowTechnique for Volumes {
                         store.item(i as u32, slot)
                     });
                 }
-                self.cull.record(ctx, &group0, &inputs, store, self.plans.len() as u32);
+                self.cull.record(ctx, &group0, covered, &inputs, store, self.plans.len() as u32);
                 self.cull.draws.as_ref()
             }
             _ => None,
@@ -1363,6 +1280,118 @@ impl ShadowTechnique for Volumes {
         }
         self.stats.draws = draws;
         self.frames += 1;
+    }
+}
+
+impl ShadowTechnique for Volumes {
+    fn id(&self) -> &'static str {
+        INFO.id
+    }
+
+    fn params(&self) -> &ParamSet {
+        &self.params
+    }
+
+    fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        #[cfg(not(target_arch = "wasm32"))]
+        self.read_stats(&ctx.gpu.device);
+        let size = (ctx.surface.width, ctx.surface.height);
+        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
+        if emitter != self.emitter_version {
+            // The light moved or changed size: new samples (and new buffers when their count
+            // changed). The store's items record the emitter version: they re-extract.
+            let samples = volume_samples(&self.params, ctx.light);
+            if let Some(state) = &self.state
+                && state.samples == samples.len()
+            {
+                write_samples(&ctx.gpu.queue, &state.sample_buffer, state.sample_stride, &samples);
+            }
+            self.samples = samples;
+            self.emitter_version = emitter;
+        }
+        let topology = self.topology.get_or_insert_with(|| VolumeTopology::shared(ctx.shared, ctx.scene)).clone();
+        if self.caster_epoch != Some(ctx.live.epoch()) {
+            // The scene changed: take its casters and receivers as they are now, in the same buffers
+            // when they fit (each caster keeps its slot, and its volumes while it stands still).
+            self.casters = Caster::all(ctx.live, &topology);
+            let set = self.caster_set;
+            self.casters.retain(|c| set.keeps(c.mobility));
+            self.caster_bounds = caster_bounds(&self.casters);
+            self.caster_epoch = Some(ctx.live.epoch());
+            if let Some(store) = &mut self.store
+                && !store.place(ctx, &topology, &self.casters)
+            {
+                store.forget_all(ctx);
+                self.store = None;
+            }
+            if let Some(r) = &mut self.receivers
+                && !r.refresh(ctx)
+            {
+                if let Some(maps) = &r.map.maps {
+                    maps.forget_items(ctx);
+                }
+                self.receivers = None;
+            }
+        }
+        let sources: Vec<LightSource> = self.samples.iter().map(|s| LightSource::of_sample(s.sample)).collect();
+        let point = matches!(sources.first(), Some(LightSource::Point(_)));
+        if let Some(store) = &self.store
+            && !store.fits_samples(sources.len() as u32, point)
+        {
+            store.forget_all(ctx);
+            self.store = None;
+        }
+        let store = match &mut self.store {
+            Some(store) => store,
+            None => self.store.insert(Store::new(ctx, &topology, &self.casters, sources.len() as u32, point)),
+        };
+        store.extract(ctx, &topology, &self.casters, &sources)?;
+        if self.state.as_ref().is_none_or(|s| s.size != size || s.samples != self.samples.len()) {
+            self.state = Some(self.build_state(ctx));
+        }
+        if self.crop && self.receivers.is_none() {
+            self.receivers = Some(Receivers::new(ctx, &self.params));
+        }
+        if let Some(r) = &mut self.receivers {
+            r.map.update(ctx)?;
+        }
+        let (Some(state), Some(store)) = (&self.state, &self.store) else { return Ok(()) };
+        let camera = volume_camera(ctx);
+        if self.settings.focus {
+            self.focus_spheres = focus_spheres(ctx.live);
+        }
+        let frame = FrameView {
+            camera: &camera,
+            width: size.0,
+            height: size.1,
+            range: ctx.light.range,
+            casters: &self.casters,
+            slots: &store.slot_of,
+            topology: &topology,
+            bounds: &self.caster_bounds,
+            focus: &self.focus_spheres,
+        };
+        let volume_matrix = camera.volume_matrix();
+        self.plans.clear();
+        for (i, &source) in sources.iter().enumerate() {
+            let plan = plan::plan(&self.settings, &frame, source);
+            let (zp_matrix, zp_origin) = match plan.method {
+                Method::ZpPlus(zp) => (zp.matrix, zp.origin.extend(1.0)),
+                _ => (Mat4::IDENTITY, Vec4::ZERO),
+            };
+            let uniform = PassUniform { volume_matrix, zp_matrix, zp_origin };
+            ctx.gpu.queue.write_buffer(&state.pass_buffer, i as u64 * state.pass_stride, bytemuck::bytes_of(&uniform));
+            self.plans.push(plan);
+        }
+        Ok(())
+    }
+
+    fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        self.resolve_with(ctx, out, None);
+    }
+
+    fn resolve_beneath(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer, covered: &Covered<'_>) {
+        self.resolve_with(ctx, out, Some(covered));
     }
 
     /// Shown once every object's volumes were extracted (alg. 14: a light is shadowed by volumes

@@ -1085,6 +1085,10 @@ impl Volumes {
                 })
                 .collect()
         });
+        if in_region.is_none() {
+            // What a drag holds is freed with its last step (a whole resolve follows a release).
+            self.cull = Cull::default();
+        }
         let culled = match &in_region {
             Some(lists) if self.plans.iter().any(|p| !p.robust && p.method != Method::Skip) => {
                 let mut inputs = plan::CullInputs::new(store.items());

@@ -687,7 +687,7 @@ fn directional_cascade(
             (zc.iter().copied().fold(f32::INFINITY, f32::min), zc.iter().copied().fold(f32::NEG_INFINITY, f32::max));
         (Vec3::new(b.min.x, b.min.y, lo), Vec3::new(b.max.x, b.max.y, hi))
     } else if s.stabilize {
-        stabilized_box(&bounds, &scene_ls, size)
+        stabilized_box(&bounds, &scene_ls, size, s.auto)
     } else if s.quantize && s.focus && !warping && !empty {
         let (lo, hi) = quantised_box(&bounds, size);
         (Vec3::new(lo.x, lo.y, z_min), Vec3::new(hi.x, hi.y, z_max))
@@ -745,11 +745,20 @@ fn directional_cascade(
 /// Stabilised focus (Stingl 2011, §3.5, Zhang et al. 2009's approximated solution): the square
 /// extent quantised to 64 levels of the scene's extent, the centre snapped to whole texels, the
 /// depth range that of the whole scene. Small camera motions then move no texel boundary.
-fn stabilized_box(bounds: &Aabb, scene_ls: &Aabb, size: f32) -> (Vec3, Vec3) {
+/// `octaves` (`scheme=auto`, whose boxes follow the visible samples and so change size every frame
+/// of a walk): the extent a power-of-two fraction of the scene's (down to 1/4096), so the texel size
+/// changes only when the samples' box crosses an octave, at the cost of up to half the resolution.
+fn stabilized_box(bounds: &Aabb, scene_ls: &Aabb, size: f32, octaves: bool) -> (Vec3, Vec3) {
     const LEVELS: f32 = 64.0;
     let full = (scene_ls.max.x - scene_ls.min.x).max(scene_ls.max.y - scene_ls.min.y).max(1e-6);
     let want = (bounds.max.x - bounds.min.x).max(bounds.max.y - bounds.min.y) * (1.0 + 4.0 / size);
-    let extent = ((want / full * LEVELS).ceil() / LEVELS).clamp(1.0 / LEVELS, 1.0) * full;
+    let fraction = if octaves {
+        let f = (want / full).max(1.0 / 4096.0).log2().ceil().exp2();
+        if f.is_finite() { f.clamp(1.0 / 4096.0, 1.0) } else { 1.0 }
+    } else {
+        ((want / full * LEVELS).ceil() / LEVELS).clamp(1.0 / LEVELS, 1.0)
+    };
+    let extent = fraction * full;
     let texel = extent / size;
     let c = bounds.center();
     let (cx, cy) = ((c.x / texel).round() * texel, (c.y / texel).round() * texel);

@@ -8,7 +8,7 @@
 //!   Lauritzen, Salvi and Lefohn 2011): log splits over the tight depth range of a frame before
 //!   (with a guard band), each unwarped directional split cut to the light-space box of the samples
 //!   it held (`DepthRange::with_samples`, read back without stalling); until a measurement arrives,
-//!   the practical scheme with `lambda`;
+//!   the practical scheme with `lambda`. The default;
 //! - `selection`: split by eye depth or by best resolution (§3.3.3); `blend`: a band between splits;
 //! - `pseudo_near`, `pseudo_far`: Lloyd's pseudo-near and Stingl's pseudo-far planes (§4.2);
 //! - `auto_near`: near and far from a GPU min/max reduction of the previous frame's depth (§4.3);
@@ -52,11 +52,17 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::int("splits", 1, 1, 16, "z-partitions (cascades)"),
         ParamDef::choice(
             "scheme",
-            "practical",
+            "auto",
             &["uniform", "log", "practical", "auto"],
             "split scheme (auto: fitted to the visible depths of a frame before, SDSM)"
         ),
-        ParamDef::float("lambda", 0.5, 0.0, 1.0, "practical scheme: 0 uniform … 1 logarithmic"),
+        ParamDef::float(
+            "lambda",
+            0.5,
+            0.0,
+            1.0,
+            "practical scheme (and auto's until a measurement): 0 uniform … 1 logarithmic"
+        ),
         ParamDef::choice("selection", "best", &["depth", "best"], "split choice: eye depth or best resolution"),
         ParamDef::float("pseudo_near", 0.0, 0.0, 0.95, "pseudo-near plane, fraction of the depth range"),
         ParamDef::float("pseudo_far", 0.0, 0.0, 0.95, "pseudo-far plane, fraction of the depth range from the far end"),

@@ -396,7 +396,7 @@ fn acceptance_on_room() {
             "volumes",
             "lightmaps:samples=16",
             "sampled:samples=16,mode=array",
-            "cascaded:splits=4",
+            "cascaded:splits=4,scheme=practical",
         ],
         // A quarter of the default budget: a share of the mean `hard` cost, below the point
         // lamps' (cube maps): they get `volumes`, the spot and the sun `pcss` (measured).
@@ -407,5 +407,5 @@ fn acceptance_on_room() {
 #[test]
 fn acceptance_on_terrain() {
     // `lightmaps` cannot run on terrain (its receivers need more layers than a texture array has).
-    acceptance("terrain", "ground", &["hard", "pcf", "pcss", "volumes", "cascaded:splits=4"], 1.0);
+    acceptance("terrain", "ground", &["hard", "pcf", "pcss", "volumes", "cascaded:splits=4,scheme=practical"], 1.0);
 }

@@ -288,6 +288,133 @@ pub struct CascadeSettings {
     /// metres and thin lit objects shadow themselves. With the true near it is "very good"
     /// (Stingl 2011 §4.3, Fig. 4.3); without one, PSM is held at LiSPSM's strength.
     pub visible_near: Option<f32>,
+    /// `scheme=auto` (SDSM, Lauritzen, Salvi and Lefohn 2011): with a measured `depth_range`, the
+    /// splits are logarithmic over that tight range, and each directional unwarped split is fitted
+    /// to the light-space box of the `samples` it holds. Without a measurement yet (the first
+    /// frame), the practical scheme with `lambda` over the adjusted range.
+    pub auto: bool,
+    /// The visible samples measured on the GPU (a frame or two late), for `auto`.
+    pub samples: Option<DepthSamples>,
+}
+
+/// Bins of eye depth the GPU sorts the visible samples into, each keeping the light-space box of
+/// its samples (`DepthSamples`). Log-spaced over the view's depth range clipped to the scene: over
+/// a street view's 0.5 m … 1 km a bin spans 13% of its depth, so a split's box takes in samples at
+/// most that much beyond its ends. `shaders/depth_samples.wgsl` holds the same number.
+pub const DEPTH_BINS: usize = 64;
+
+/// The eye depths of the `DEPTH_BINS + 1` bin edges over `[near, far]`, logarithmic.
+pub fn depth_bin_edges(near: f32, far: f32) -> Vec<f32> {
+    let (n, f) = depth_bin_range(near, far);
+    (0..=DEPTH_BINS).map(|i| n * (f / n).powf(i as f32 / DEPTH_BINS as f32)).collect()
+}
+
+/// `[near, far]` made a valid range for bins (positive, not empty); what the GPU bins over.
+pub fn depth_bin_range(near: f32, far: f32) -> (f32, f32) {
+    let n = if near.is_finite() { near.max(1e-6) } else { 1e-6 };
+    let f = if far.is_finite() { far } else { n * 2.0 };
+    (n, f.max(n * (1.0 + 1e-4)))
+}
+
+/// The float an order-preserving u32 code stands for (the inverse of `depth_samples.wgsl`'s
+/// `ordered`: positive floats with the sign bit set, negative ones with all bits flipped).
+pub fn from_ordered(code: u32) -> f32 {
+    f32::from_bits(if code & 0x8000_0000 != 0 { code & 0x7fff_ffff } else { !code })
+}
+
+/// The order-preserving u32 code of a float (`from_ordered`'s inverse).
+pub fn to_ordered(f: f32) -> u32 {
+    let b = f.to_bits();
+    if b & 0x8000_0000 != 0 { !b } else { b | 0x8000_0000 }
+}
+
+/// What a frame's visible samples tell about the splits of a later frame (SDSM's per-partition
+/// bounds, Lauritzen et al. 2011 §4): per bin of eye depth, the xy box the samples take in the
+/// light's unwarped frame (`light_frame`), and the camera they were seen from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DepthSamples {
+    /// The light frame the boxes are in; they apply only while a split uses the same one.
+    pub light_view: Mat4,
+    /// Eye position and unit viewing direction of the frame measured.
+    pub eye: Vec3,
+    pub forward: Vec3,
+    /// `(near, far, min, max)` of each bin that holds samples.
+    pub bins: Vec<(f32, f32, Vec2, Vec2)>,
+}
+
+impl DepthSamples {
+    /// The samples from the words the GPU wrote (`depth_samples.wgsl`): `[min depth, max depth]`
+    /// then per bin the ordered codes of min x, min y, max x, max y, binned over `depth_bin_edges
+    /// (near, far)`. The first and last bins also hold the samples beyond the edges (the shader
+    /// clamps), so their outer edges are widened to the measured range. `None` when the words are
+    /// too few or hold no sample.
+    pub fn from_words(words: &[u32], light_view: Mat4, near: f32, far: f32, eye: Vec3, forward: Vec3) -> Option<Self> {
+        if words.len() < 2 + 4 * DEPTH_BINS {
+            return None;
+        }
+        let (lo, hi) = (f32::from_bits(words[0]), f32::from_bits(words[1]));
+        if !(lo <= hi && lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        let edges = depth_bin_edges(near, far);
+        let mut bins = Vec::new();
+        for i in 0..DEPTH_BINS {
+            let w = &words[2 + 4 * i..6 + 4 * i];
+            let (min, max) =
+                (Vec2::new(from_ordered(w[0]), from_ordered(w[1])), Vec2::new(from_ordered(w[2]), from_ordered(w[3])));
+            if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+                continue;
+            }
+            let n = if i == 0 { edges[0].min(lo) } else { edges[i] };
+            let f = if i + 1 == DEPTH_BINS { edges[i + 1].max(hi) } else { edges[i + 1] };
+            bins.push((n, f, min, max));
+        }
+        (!bins.is_empty()).then_some(Self { light_view, eye, forward, bins })
+    }
+
+    /// The union of the boxes of the bins that overlap eye depths `[near, far]` (a bin partly
+    /// inside counts whole: the box is never smaller than the split's samples'). `None` when no
+    /// sample lies there.
+    pub fn box_between(&self, near: f32, far: f32) -> Option<(Vec2, Vec2)> {
+        self.bins.iter().filter(|b| b.1 >= near && b.0 <= far).fold(None, |acc, b| match acc {
+            None => Some((b.2, b.3)),
+            Some((lo, hi)) => Some((lo.min(b.2), hi.max(b.3))),
+        })
+    }
+
+    /// How far (world units) a sample seen at depth up to `far` may have moved on screen since the
+    /// measurement: the eye's displacement plus the turn of the view times the depth. The guard
+    /// band of a frame-late fit (0 while the camera stands still).
+    pub fn drift(&self, eye: Vec3, forward: Vec3, far: f32) -> f32 {
+        let turn = self.forward.dot(forward).clamp(-1.0, 1.0).acos();
+        let d = (eye - self.eye).length() + turn * far.max(0.0);
+        if d.is_finite() { d } else { f32::INFINITY }
+    }
+}
+
+/// What the GPU measured of the visible depths, a frame or more before it is used: the tight range
+/// (`CascadeSettings::depth_range`, PSM's `visible_near`), the frame it was measured in, and the
+/// binned samples of `scheme=auto`. A fresh engine adopts a live engine's, so both fit their maps
+/// to the same measurement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VisibleDepths {
+    pub range: (f32, f32),
+    pub frame: u64,
+    pub samples: Option<DepthSamples>,
+}
+
+/// The unwarped frame of a directional light's maps: looking along `light_dir` from outside the
+/// scene's bounding sphere, +y world up (+z when the light is vertical), so that the texel grid does
+/// not turn with the camera (a precondition of stabilisation, and what `DepthSamples` are measured in).
+pub fn light_frame(light_dir: Vec3, scene: &Aabb) -> Mat4 {
+    let up = if light_dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+    light_frame_up(light_dir, scene, up)
+}
+
+fn light_frame_up(light_dir: Vec3, scene: &Aabb, up: Vec3) -> Mat4 {
+    let radius = 0.5 * scene.diagonal().max(1e-3);
+    let eye = scene.center() - light_dir * (radius * 1.5);
+    glam::camera::rh::view::look_at_mat4(eye, eye + light_dir, up)
 }
 
 /// One split's map.
@@ -410,16 +537,25 @@ pub fn adjusted_depth_range(view: &View, aspect: f32, scene: &Aabb) -> Option<(f
 /// depth range, split it, then per split focus on B_i, warp (directional lights) and fit.
 pub fn compute_cascades(light: &Light, scene: &Aabb, view: &View, aspect: f32, s: &CascadeSettings) -> CascadeFrame {
     let (mut near, mut far) = adjusted_depth_range(view, aspect, scene).unwrap_or((view.near, view.far));
+    let mut lambda = s.lambda;
     if let Some((lo, hi)) = s.depth_range {
-        // The measured range is what the camera sees; it never widens the adjusted one.
+        // The measured range is what the camera sees; it never widens the adjusted one. The auto
+        // scheme's is a frame or more old: a guard band of 10% on each side (a camera walking
+        // towards a wall gets nearer than it was by less than that in a frame).
+        let (lo, hi) = if s.auto { (lo * 0.9, hi * 1.1) } else { (lo, hi) };
         near = lo.max(near).min(far);
         far = hi.min(far).max(near * (1.0 + 1e-4));
+        if s.auto {
+            // Lauritzen et al. 2011 §3: logarithmic partitions over the tight range are close to
+            // the best fixed ones for any view (the log scheme's fault is only the near plane).
+            lambda = 1.0;
+        }
     }
     let forward = view.forward();
     let m = s.splits.max(1);
     let span = far - near;
     let (pn, pf) = (near + s.pseudo_near.clamp(0.0, 0.99) * span, far - s.pseudo_far.clamp(0.0, 0.99) * span);
-    let distances = split_distances(near, far, m, s.lambda, pn, pf.max(pn * (1.0 + 1e-4)));
+    let distances = split_distances(near, far, m, lambda, pn, pf.max(pn * (1.0 + 1e-4)));
     let light_dir = light.direction().unwrap_or(Vec3::NEG_Y).normalize();
     let gamma = forward.dot(-light_dir).abs().min(1.0).acos();
     let mut cascades = Vec::with_capacity(m);
@@ -460,16 +596,9 @@ fn directional_cascade(
     // camera: a precondition of stabilisation).
     let projected = forward - light_dir * forward.dot(light_dir);
     let warping = s.warp != Warp::None && projected.length() > 1e-3;
-    let up = if warping {
-        projected.normalize()
-    } else if light_dir.y.abs() > 0.99 {
-        Vec3::Z
-    } else {
-        Vec3::Y
-    };
-    let radius = 0.5 * scene.diagonal().max(1e-3);
-    let eye = scene.center() - light_dir * (radius * 1.5);
-    let light_view = glam::camera::rh::view::look_at_mat4(eye, eye + light_dir, up);
+    let light_view =
+        if warping { light_frame_up(light_dir, scene, projected.normalize()) } else { light_frame(light_dir, scene) };
+    let eye = light_view.inverse().transform_point3(Vec3::ZERO);
     let mut points: Vec<Vec3> = if s.focus {
         crate::convex::directional_focus_points(body, scene, light_dir)
     } else {
@@ -481,7 +610,26 @@ fn directional_cascade(
         points = vec![scene.center(), scene.center() + Vec3::splat(1e-3)];
     }
     let ls: Vec<Vec3> = points.iter().map(|&p| light_view.transform_point3(p)).collect();
-    let bounds = Aabb::from_points(ls.iter().copied());
+    let mut bounds = Aabb::from_points(ls.iter().copied());
+    let fitted = if warping || empty || !s.auto || !s.focus { None } else { s.samples.as_ref() };
+    // The same frame up to rounding (its translation is of the scene's size).
+    let same_frame = |m: &Mat4| m.abs_diff_eq(light_view, 1e-5 * (1.0 + light_view.w_axis.truncate().length()));
+    if let Some(samples) = fitted.filter(|d| same_frame(&d.light_view)) {
+        // SDSM's per-partition bounds (Lauritzen et al. 2011 §4): the focus box cut down to the
+        // samples the split held when measured, grown by a guard band (2% of the box, and how far
+        // the view has moved since, which also widens the depths taken). Where they no longer
+        // overlap, the focus box stays.
+        let drift = samples.drift(view.position, forward, far);
+        if let Some((lo, hi)) = samples.box_between(near - drift, far + drift) {
+            let pad = 0.02 * (hi - lo).max_element() + drift;
+            let (lo, hi) = (lo - Vec2::splat(pad), hi + Vec2::splat(pad));
+            let (cut_lo, cut_hi) = (bounds.min.truncate().max(lo), bounds.max.truncate().min(hi));
+            if cut_lo.cmplt(cut_hi).all() {
+                bounds.min = cut_lo.extend(bounds.min.z);
+                bounds.max = cut_hi.extend(bounds.max.z);
+            }
+        }
+    }
     // Depth covers the whole scene along the light (casters anywhere above the body).
     let scene_ls = Aabb::from_points(scene.corners().iter().map(|&c| light_view.transform_point3(c)));
     let (z_min, z_max) = (scene_ls.min.z.min(bounds.min.z), scene_ls.max.z.max(bounds.max.z));
@@ -539,7 +687,7 @@ fn directional_cascade(
             (zc.iter().copied().fold(f32::INFINITY, f32::min), zc.iter().copied().fold(f32::NEG_INFINITY, f32::max));
         (Vec3::new(b.min.x, b.min.y, lo), Vec3::new(b.max.x, b.max.y, hi))
     } else if s.stabilize {
-        stabilized_box(&bounds, &scene_ls, size)
+        stabilized_box(&bounds, &scene_ls, size, s.auto)
     } else if s.quantize && s.focus && !warping && !empty {
         let (lo, hi) = quantised_box(&bounds, size);
         (Vec3::new(lo.x, lo.y, z_min), Vec3::new(hi.x, hi.y, z_max))
@@ -597,11 +745,20 @@ fn directional_cascade(
 /// Stabilised focus (Stingl 2011, §3.5, Zhang et al. 2009's approximated solution): the square
 /// extent quantised to 64 levels of the scene's extent, the centre snapped to whole texels, the
 /// depth range that of the whole scene. Small camera motions then move no texel boundary.
-fn stabilized_box(bounds: &Aabb, scene_ls: &Aabb, size: f32) -> (Vec3, Vec3) {
+/// `octaves` (`scheme=auto`, whose boxes follow the visible samples and so change size every frame
+/// of a walk): the extent a power-of-two fraction of the scene's (down to 1/4096), so the texel size
+/// changes only when the samples' box crosses an octave, at the cost of up to half the resolution.
+fn stabilized_box(bounds: &Aabb, scene_ls: &Aabb, size: f32, octaves: bool) -> (Vec3, Vec3) {
     const LEVELS: f32 = 64.0;
     let full = (scene_ls.max.x - scene_ls.min.x).max(scene_ls.max.y - scene_ls.min.y).max(1e-6);
     let want = (bounds.max.x - bounds.min.x).max(bounds.max.y - bounds.min.y) * (1.0 + 4.0 / size);
-    let extent = ((want / full * LEVELS).ceil() / LEVELS).clamp(1.0 / LEVELS, 1.0) * full;
+    let fraction = if octaves {
+        let f = (want / full).max(1.0 / 4096.0).log2().ceil().exp2();
+        if f.is_finite() { f.clamp(1.0 / 4096.0, 1.0) } else { 1.0 }
+    } else {
+        ((want / full * LEVELS).ceil() / LEVELS).clamp(1.0 / LEVELS, 1.0)
+    };
+    let extent = fraction * full;
     let texel = extent / size;
     let c = bounds.center();
     let (cx, cy) = ((c.x / texel).round() * texel, (c.y / texel).round() * texel);
@@ -807,6 +964,8 @@ mod tests {
             map_size: 1024,
             depth_range: None,
             visible_near: None,
+            auto: false,
+            samples: None,
         }
     }
 
@@ -912,6 +1071,160 @@ mod tests {
                 }
                 assert_splits_cover(&f, &view, &scene);
             }
+        }
+    }
+
+    #[test]
+    fn ordered_codes_keep_the_order_of_floats() {
+        let values = [f32::NEG_INFINITY, -1e30, -2.5, -1e-30, -0.0, 0.0, 1e-30, 2.5, 1e30, f32::INFINITY];
+        for w in values.windows(2) {
+            assert!(to_ordered(w[0]) <= to_ordered(w[1]), "{} {}", w[0], w[1]);
+        }
+        for v in values {
+            assert_eq!(from_ordered(to_ordered(v)).to_bits(), v.to_bits());
+        }
+        // The shader's empty words decode to no box: NaN minima and maxima.
+        assert!(from_ordered(u32::MAX).is_nan() && from_ordered(0).is_nan());
+    }
+
+    /// The visible ground (y = 0) of `view` on a `n` × `n` grid of screen points, as the GPU's
+    /// depth buffer would hold it.
+    fn ground_samples(view: &View, aspect: f32, scene: &Aabb, n: usize) -> Vec<Vec3> {
+        let inv = (view.projection(aspect) * view.view_matrix()).inverse();
+        let mut out = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let ndc = Vec2::new((i as f32 + 0.5) / n as f32 * 2.0 - 1.0, (j as f32 + 0.5) / n as f32 * 2.0 - 1.0);
+                let far = inv.project_point3(ndc.extend(0.5));
+                let dir = (far - view.position).normalize();
+                if dir.y >= -1e-4 {
+                    continue;
+                }
+                let p = view.position + dir * (-view.position.y / dir.y);
+                let d = (p - view.position).dot(view.forward());
+                if scene.contains(p) && d > view.near && d < view.far {
+                    out.push(p);
+                }
+            }
+        }
+        out
+    }
+
+    /// The words `depth_samples.wgsl` writes for `points` (the same binning, on the CPU).
+    fn sample_words(points: &[Vec3], view: &View, light_view: Mat4, near: f32, far: f32) -> Vec<u32> {
+        let (n, f) = depth_bin_range(near, far);
+        let mut w = vec![0x7f7f_ffff, 0];
+        for _ in 0..DEPTH_BINS {
+            w.extend([u32::MAX, u32::MAX, 0, 0]);
+        }
+        for &p in points {
+            let d = (p - view.position).dot(view.forward());
+            w[0] = w[0].min(d.to_bits());
+            w[1] = w[1].max(d.to_bits());
+            let t = (d / n).ln() * DEPTH_BINS as f32 / (f / n).ln();
+            let b = t.floor().clamp(0.0, DEPTH_BINS as f32 - 1.0) as usize;
+            let xy = light_view.transform_point3(p);
+            let k = 2 + 4 * b;
+            w[k] = w[k].min(to_ordered(xy.x));
+            w[k + 1] = w[k + 1].min(to_ordered(xy.y));
+            w[k + 2] = w[k + 2].max(to_ordered(xy.x));
+            w[k + 3] = w[k + 3].max(to_ordered(xy.y));
+        }
+        w
+    }
+
+    #[test]
+    fn auto_splits_fit_the_visible_samples() {
+        let (light, scene, view) = terrain_like();
+        let aspect = 1.5;
+        let points = ground_samples(&view, aspect, &scene, 96);
+        assert!(points.len() > 1000, "{}", points.len());
+        let light_view = light_frame(light.direction().unwrap(), &scene);
+        let (near, far) = adjusted_depth_range(&view, aspect, &scene).unwrap();
+        let words = sample_words(&points, &view, light_view, near, far);
+        let samples = DepthSamples::from_words(&words, light_view, near, far, view.position, view.forward()).unwrap();
+        let range = (f32::from_bits(words[0]), f32::from_bits(words[1]));
+        let auto = CascadeSettings { auto: true, ..settings(Warp::None, 4) };
+        // No measurement yet: the practical scheme over the adjusted range, as without `auto`.
+        let first = compute_cascades(&light, &scene, &view, aspect, &auto);
+        assert_eq!(
+            first.split_distances(),
+            compute_cascades(&light, &scene, &view, aspect, &settings(Warp::None, 4)).split_distances()
+        );
+        // Measured: log splits over the tight range with its 10% guard band.
+        let ranged = CascadeSettings { depth_range: Some(range), ..auto.clone() };
+        let unfitted = compute_cascades(&light, &scene, &view, aspect, &ranged);
+        let d = unfitted.split_distances();
+        assert!(
+            (d[0] - 0.9 * range.0).abs() < 1e-3 * range.0 && (d[4] - 1.1 * range.1).abs() < 1e-3 * range.1,
+            "{d:?} {range:?}"
+        );
+        assert!(((d[1] / d[0]) / (d[4] / d[3]) - 1.0).abs() < 1e-3, "log: equal ratios {d:?}");
+        let fitted = compute_cascades(
+            &light,
+            &scene,
+            &view,
+            aspect,
+            &CascadeSettings { samples: Some(samples.clone()), ..ranged.clone() },
+        );
+        assert_eq!(fitted.split_distances(), d);
+        // Every sample lands inside its split's fitted map.
+        for &p in &points {
+            let depth = (p - view.position).dot(view.forward());
+            let i = d.windows(2).position(|w| depth >= w[0] && depth < w[1]).unwrap();
+            let uv = fitted.cascades[i].view.project(p);
+            assert!(uv.x > 0.0 && uv.x < 1.0 && uv.y > 0.0 && uv.y < 1.0, "split {i}: {p} → {uv}");
+        }
+        // The samples' boxes are smaller than the frusta's: the near split's texels shrink
+        // (measured 0.55 of the unfitted texel; bound 0.8, well clear of a 9% ladder step).
+        let (a, b) = (unfitted.cascades[0].view.texel_scale, fitted.cascades[0].view.texel_scale);
+        assert!(b < 0.8 * a, "split 0 texel {b} fitted vs {a}");
+        assert!(
+            fitted
+                .cascades
+                .iter()
+                .zip(&unfitted.cascades)
+                .all(|(f, u)| f.view.texel_scale <= u.view.texel_scale * 1.0001)
+        );
+        // Samples of another light frame are ignored; a camera moved by 5 m widens the boxes.
+        let other = DepthSamples { light_view: Mat4::IDENTITY, ..samples.clone() };
+        let ignored = compute_cascades(
+            &light,
+            &scene,
+            &view,
+            aspect,
+            &CascadeSettings { samples: Some(other), ..ranged.clone() },
+        );
+        assert_eq!(ignored.cascades[0].view.texel_scale, a);
+        let moved = DepthSamples { eye: view.position + Vec3::X * 5.0, ..samples.clone() };
+        let guarded = compute_cascades(
+            &light,
+            &scene,
+            &view,
+            aspect,
+            &CascadeSettings { samples: Some(moved), ..ranged.clone() },
+        );
+        assert!(guarded.cascades[0].view.texel_scale > b);
+        // Stabilised on top: each split's square extent a power-of-two fraction of the scene's
+        // (a fitted box changes size every frame), still holding its samples.
+        let stable = CascadeSettings { stabilize: true, samples: Some(samples), ..ranged };
+        let f = compute_cascades(&light, &scene, &view, aspect, &stable);
+        let scene_ls = Aabb::from_points(scene.corners().iter().map(|&c| light_view.transform_point3(c)));
+        let full = (scene_ls.max.x - scene_ls.min.x).max(scene_ls.max.y - scene_ls.min.y);
+        let size = stable.map_size as f32;
+        for c in &f.cascades {
+            // The texel of an extent e padded by a texel each side: e (1 + 2 / size) / size.
+            let octave = (c.view.texel_scale * size / (1.0 + 2.0 / size) / full).log2();
+            assert!((octave - octave.round()).abs() < 1e-3, "extent 2^{octave} of the scene's");
+        }
+        // Still finer than the unfitted split, octaves and all (measured 0.0334 against 0.0406;
+        // deterministic, so no margin).
+        assert!(f.cascades[0].view.texel_scale < a, "{} vs unfitted {a}", f.cascades[0].view.texel_scale);
+        for &p in &points {
+            let depth = (p - view.position).dot(view.forward());
+            let i = d.windows(2).position(|w| depth >= w[0] && depth < w[1]).unwrap();
+            let uv = f.cascades[i].view.project(p);
+            assert!(uv.x > 0.0 && uv.x < 1.0 && uv.y > 0.0 && uv.y < 1.0, "stabilised split {i}: {p} → {uv}");
         }
     }
 

@@ -39,7 +39,7 @@ pub const CANDIDATES: &[&str] = &[
     "lightmaps:samples=16",
     "lightmaps",
     "sampled:samples=16,mode=array",
-    "cascaded:splits=4",
+    "cascaded:splits=4,scheme=practical",
 ];
 
 /// The default budget per light, in multiples of the light's `hard` cost
@@ -180,7 +180,7 @@ pub const DEFAULT_TABLE: &[(&str, &[TableRow])] = &[
             row("lightmaps:samples=16", 180.09, 0.15, 0.0316, 0.0141, 18524908),
             row("lightmaps", 696.36, 0.67, 0.0302, 0.0124, 18696940),
             row("sampled:samples=16,mode=array", 65.99, 0.39, 0.0506, 0.0115, 17078816),
-            row("cascaded:splits=4", 77.07, 0.11, 0.0365, 0.0133, 67308112),
+            row("cascaded:splits=4,scheme=practical", 77.07, 0.11, 0.0365, 0.0133, 67308112),
         ],
     ),
     (
@@ -194,7 +194,7 @@ pub const DEFAULT_TABLE: &[(&str, &[TableRow])] = &[
             row("lightmaps:samples=16", 179.09, 0.05, 0.1393, 0.0209, 14239708),
             row("lightmaps", 678.32, 1.61, 0.1393, 0.0211, 14411740),
             row("sampled:samples=16,mode=array", 54.46, 0.63, 0.0329, 0.0023, 33856032),
-            row("cascaded:splits=4", 68.87, 0.30, 0.0163, 0.0019, 134416976),
+            row("cascaded:splits=4,scheme=practical", 68.87, 0.30, 0.0163, 0.0019, 134416976),
         ],
     ),
     (

@@ -493,6 +493,15 @@ impl Shadows {
             let index = self.live.light_index(s.light).expect("shadowed lights exist");
             let specs: Vec<TechniqueSpec> = s.rungs.iter().map(|r| r.spec.clone()).collect();
             fresh.set_ladder(LightId(index as u32), &specs, s.layer.texture.width(), s.layer.texture.height())?;
+            // What the live rungs measured frames ago (cascaded's visible depths) is part of
+            // their state: the fresh rungs take it, so both fit their maps to the same samples.
+            if let Some(f) = fresh.lights.iter_mut().find(|f| f.light == LightId(index as u32)) {
+                for (fr, lr) in f.rungs.iter_mut().zip(&s.rungs) {
+                    if let Some(m) = lr.technique.measured() {
+                        fr.technique.adopt_measured(m);
+                    }
+                }
+            }
         }
         Ok(fresh)
     }

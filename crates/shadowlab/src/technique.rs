@@ -8,6 +8,7 @@
 //! rest of the renderer, which is what makes techniques comparable, composable per light and
 //! replaceable.
 
+use shadowlab_core::cascades::VisibleDepths;
 use shadowlab_core::params::{ParamDef, ParamError, ParamSet};
 use shadowlab_core::{Light, LightId, Scene};
 
@@ -217,6 +218,17 @@ pub trait ShadowTechnique: Send {
     fn fill_counts(&self) -> Vec<&wgpu::Buffer> {
         Vec::new()
     }
+
+    /// What the technique measured on the GPU and steers by a frame or more later (`cascaded`'s
+    /// visible depths): a readback that a fresh engine, rendering one frame, cannot have. Default:
+    /// none.
+    fn measured(&self) -> Option<VisibleDepths> {
+        None
+    }
+
+    /// Takes a live engine's measurement ([`ShadowTechnique::measured`]) as its own, so that a
+    /// fresh engine compared with it draws from the same state (`Shadows::fresh`). Default: ignored.
+    fn adopt_measured(&mut self, _measured: VisibleDepths) {}
 
     /// Gives up the caches a successor on the same light could keep ([`Handover`]). Default: none.
     fn hand_over(&mut self) -> Option<Handover> {

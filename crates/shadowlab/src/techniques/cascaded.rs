@@ -4,6 +4,11 @@
 //! - `warp`: PSM, LiSPSM (n_opt), reparametrised LiSPSM (n_repar(γ)) or an arbitrary η (§3.2), with
 //!   the projection centre that moves continuously with the camera (§4.1);
 //! - `splits`, `scheme`, `lambda`: z-partitioning (PSSM / CSM, §3.3), each split focused and warped;
+//!   `scheme=auto` fits the splits to the visible samples (sample distribution shadow maps,
+//!   Lauritzen, Salvi and Lefohn 2011): log splits over the tight depth range of a frame before
+//!   (with a guard band), each unwarped directional split cut to the light-space box of the samples
+//!   it held (`DepthRange::with_samples`, read back without stalling); until a measurement arrives,
+//!   the practical scheme with `lambda`. The default;
 //! - `selection`: split by eye depth or by best resolution (§3.3.3); `blend`: a band between splits;
 //! - `pseudo_near`, `pseudo_far`: Lloyd's pseudo-near and Stingl's pseudo-far planes (§4.2);
 //! - `auto_near`: near and far from a GPU min/max reduction of the previous frame's depth (§4.3);
@@ -18,13 +23,16 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
-use shadowlab_core::cascades::{CascadeFrame, CascadeSettings, Warp, compute_cascades, scheme_lambda};
+use shadowlab_core::cascades::{
+    CascadeFrame, CascadeSettings, VisibleDepths, Warp, adjusted_depth_range, compute_cascades, light_frame,
+    scheme_lambda,
+};
 use shadowlab_core::lightspace::ShadowView;
 use shadowlab_core::params::ParamDef;
 use shadowlab_core::{Light, LightKind, ParamSet};
 
 use crate::context::Shared;
-use crate::depth_range::DepthRange;
+use crate::depth_range::{BinSetup, DepthRange};
 use crate::frame::VisibilityLayer;
 use crate::kernel;
 use crate::live::{MapViews, ShadowCache};
@@ -36,14 +44,25 @@ use crate::technique::{
 pub const INFO: TechniqueInfo = TechniqueInfo {
     id: "cascaded",
     summary: "focused, warped (PSM/LiSPSM) and z-partitioned (PSSM/CSM) shadow maps, stabilised",
-    source: "Stingl 2011 §3-4; Wimmer & Scherzer 2006; Zhang et al. 2006/2009; Lloyd et al. 2008",
+    source: "Stingl 2011 §3-4; Wimmer & Scherzer 2006; Zhang et al. 2006/2009; Lloyd et al. 2008; Lauritzen et al. 2011 (auto)",
     params: crate::map_params!(
         ParamDef::bool("focus", true, "fit each map to the visible part of the scene"),
         ParamDef::choice("warp", "none", &["none", "psm", "lispsm", "repar", "arbitrary"], "perspective warp"),
         ParamDef::float("warp_strength", 0.0, -1.0, 1.0, "η for warp=arbitrary: -1 uniform, 0 LiSPSM, 1 PSM"),
         ParamDef::int("splits", 1, 1, 16, "z-partitions (cascades)"),
-        ParamDef::choice("scheme", "practical", &["uniform", "log", "practical"], "split scheme"),
-        ParamDef::float("lambda", 0.5, 0.0, 1.0, "practical scheme: 0 uniform … 1 logarithmic"),
+        ParamDef::choice(
+            "scheme",
+            "auto",
+            &["uniform", "log", "practical", "auto"],
+            "split scheme (auto: fitted to the visible depths of a frame before, SDSM)"
+        ),
+        ParamDef::float(
+            "lambda",
+            0.5,
+            0.0,
+            1.0,
+            "practical scheme (and auto's until a measurement): 0 uniform … 1 logarithmic"
+        ),
         ParamDef::choice("selection", "best", &["depth", "best"], "split choice: eye depth or best resolution"),
         ParamDef::float("pseudo_near", 0.0, 0.0, 0.95, "pseudo-near plane, fraction of the depth range"),
         ParamDef::float("pseudo_far", 0.0, 0.0, 0.95, "pseudo-far plane, fraction of the depth range from the far end"),
@@ -115,6 +134,8 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
             map_size: params.int("map_size") as u32,
             depth_range: None,
             visible_near: None,
+            auto: false,
+            samples: None,
         });
     }
     let warp = Warp::parse(params.choice("warp"), params.float("warp_strength") as f32)
@@ -143,6 +164,8 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
         map_size: params.int("map_size") as u32,
         depth_range: None,
         visible_near: None,
+        auto: params.choice("scheme") == "auto",
+        samples: None,
     })
 }
 
@@ -159,7 +182,12 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
     );
     // PSM needs the visible near plane for its warp (CascadeSettings::visible_near), auto_near for
     // the split range.
-    let depth_range = (params.bool("auto_near") || settings.warp == Warp::Psm).then(|| DepthRange::new(shared));
+    // the split range, and scheme=auto the binned samples too.
+    let depth_range = if settings.auto {
+        Some(DepthRange::with_samples(shared))
+    } else {
+        (params.bool("auto_near") || settings.warp == Warp::Psm).then(|| DepthRange::new(shared))
+    };
     Ok(Box::new(Cascaded {
         params: params.clone(),
         settings,
@@ -248,6 +276,12 @@ impl Cascaded {
         if let Some(l) = self.latency {
             out.push(("auto_near_latency_frames".into(), l as f64));
         }
+        if self.settings.auto {
+            // Whether this frame's splits were fitted to measured samples (0: the practical
+            // fallback before the first readback).
+            let fitted = self.depth_range.as_ref().and_then(DepthRange::measured).is_some_and(|m| m.samples.is_some());
+            out.push(("auto_fitted".into(), if fitted { 1.0 } else { 0.0 }));
+        }
         out
     }
 }
@@ -268,12 +302,13 @@ impl ShadowTechnique for Cascaded {
         let mut settings = self.settings.clone();
         if let Some(dr) = &mut self.depth_range {
             dr.poll(&ctx.gpu.device);
-            if let Some((range, frame)) = dr.latest() {
-                if self.params.bool("auto_near") {
-                    settings.depth_range = Some(range);
+            if let Some(m) = dr.measured() {
+                if self.params.bool("auto_near") || settings.auto {
+                    settings.depth_range = Some(m.range);
                 }
-                settings.visible_near = Some(range.0);
-                self.latency = Some(ctx.frame_index.saturating_sub(frame));
+                settings.visible_near = Some(m.range.0);
+                settings.samples = m.samples.clone();
+                self.latency = Some(ctx.frame_index.saturating_sub(m.frame));
             }
         }
         let view = ctx.surface.camera.view();
@@ -304,7 +339,21 @@ impl ShadowTechnique for Cascaded {
             state.generation = state.maps.generation();
         }
         if let Some(dr) = &mut self.depth_range {
-            dr.record(ctx.shared, ctx.encoder, ctx.surface, ctx.timer, ctx.frame_index);
+            // The samples are binned over this frame's depth range clipped to the scene, in the
+            // light frame of unwarped directional splits.
+            let bins = ctx.light.direction().filter(|_| settings.auto).map(|dir| {
+                let bounds = &ctx.gpu_scene.bounds;
+                let (near, far) =
+                    adjusted_depth_range(&view, ctx.surface.camera.aspect(), bounds).unwrap_or((view.near, view.far));
+                BinSetup {
+                    light_view: light_frame(dir.normalize(), bounds),
+                    near,
+                    far,
+                    eye: view.position,
+                    forward: view.forward(),
+                }
+            });
+            dr.record(ctx.shared, ctx.encoder, ctx.surface, ctx.timer, ctx.frame_index, bins);
         }
         self.triangles = ctx.gpu_scene.triangles;
         self.last = Some(frame);
@@ -341,6 +390,16 @@ impl ShadowTechnique for Cascaded {
 
     fn current(&self) -> bool {
         self.state.as_ref().is_some_and(|s| s.maps.current())
+    }
+
+    fn measured(&self) -> Option<VisibleDepths> {
+        self.depth_range.as_ref().and_then(DepthRange::measured).cloned()
+    }
+
+    fn adopt_measured(&mut self, measured: VisibleDepths) {
+        if let Some(dr) = &mut self.depth_range {
+            dr.adopt(measured);
+        }
     }
 
     fn analysis(&self) -> Option<MapAnalysis<'_>> {

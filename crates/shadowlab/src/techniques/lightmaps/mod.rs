@@ -856,6 +856,14 @@ impl ShadowTechnique for Lightmaps {
         self.rest.map_demand(light, bounds, dynamic)
     }
 
+    fn measured(&self) -> Option<shadowlab_core::cascades::VisibleDepths> {
+        self.rest.measured()
+    }
+
+    fn adopt_measured(&mut self, measured: shadowlab_core::cascades::VisibleDepths) {
+        self.rest.adopt_measured(measured);
+    }
+
     /// Shown as soon as `rest` is: until every lit receiver has a light map, receivers are shadowed
     /// like the other pixels (Toromanoff's alg. 13: "otherwise render receivers like the other
     /// objects").

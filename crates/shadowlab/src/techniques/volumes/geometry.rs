@@ -141,6 +141,10 @@ pub(super) struct Caster {
     pub transform: Affine3A,
     /// Open meshes and double-sided materials occlude with both faces.
     pub two_sided: bool,
+    /// An open mesh with a single-sided material: the G-buffer culls its back faces, so the eye
+    /// may look through one into the face's own shadow, entering the volume through its light
+    /// cap, which counting in front of the surface (z-pass, ZP+) must then draw.
+    pub see_through: bool,
     pub mirrored: bool,
     /// A world-space bounding sphere and box.
     pub centre: Vec3,
@@ -177,6 +181,7 @@ impl Caster {
                     mesh: i.mesh.index(),
                     transform: i.transform,
                     two_sided: !closed || scene.material(i.material).double_sided,
+                    see_through: !closed && !scene.material(i.material).double_sided,
                     mirrored: i.transform.matrix3.determinant() < 0.0,
                     centre,
                     radius,

@@ -98,6 +98,8 @@ pub(super) struct Drawn {
     /// ZP+ starts the count with its light caps (Toromanoff 2005 §VI.2.a: in `auto`, only casters
     /// whose volume may meet the near pyramid).
     pub zp_listed: bool,
+    /// Its light caps are drawn when counting in front of the surface (`Caster::see_through`).
+    pub see_through: bool,
 }
 
 /// Everything a plan needs to know about the frame.
@@ -216,7 +218,11 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
             .sum();
         plan.stencil_start = inside & 1;
     }
-    plan.casters = active.iter().enumerate().map(|(i, &(_, slot))| Drawn { slot, zp_listed: listed(i) }).collect();
+    plan.casters = active
+        .iter()
+        .enumerate()
+        .map(|(i, &(c, slot))| Drawn { slot, zp_listed: listed(i), see_through: c.see_through })
+        .collect();
     plan.casters.sort_unstable_by_key(|d| d.slot);
     plan
 }
@@ -396,6 +402,7 @@ mod tests {
             mesh: 0,
             transform: glam::Affine3A::IDENTITY,
             two_sided: false,
+            see_through: false,
             mirrored: false,
             centre: min + Vec3::splat(0.5),
             radius: 0.9,
@@ -417,7 +424,10 @@ mod tests {
             focus_rect: None,
             casters: vec![],
         };
-        let drawn = [Drawn { slot: 4, zp_listed: true }, Drawn { slot: 7, zp_listed: false }];
+        let drawn = [
+            Drawn { slot: 4, zp_listed: true, see_through: false },
+            Drawn { slot: 7, zp_listed: false, see_through: false },
+        ];
         let mut inputs = CullInputs::new(20);
         inputs.push_sample(&plan, &source, &casters, &slots, &drawn, |slot| slot);
         plan.method = Method::ZPass;

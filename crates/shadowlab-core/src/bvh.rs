@@ -58,9 +58,15 @@ pub enum Selection {
 #[derive(Debug, Clone, Copy)]
 pub struct PreparedRay {
     pub ray: Ray,
-    k: [usize; 3],
+    /// Which axes play x, y and z in the sheared frame (Woop et al. §3), as an index into
+    /// [`AXES`]: the test is compiled once per permutation, so no coordinate is picked at run time.
+    axes: u8,
     shear: Vec3,
 }
+
+/// The six axis permutations `[kx, ky, kz]` of the watertight test: z is the direction's largest
+/// component, and x, y swap when it is negative (Woop et al. §3, winding preserved).
+const AXES: [[usize; 3]; 6] = [[1, 2, 0], [2, 1, 0], [2, 0, 1], [0, 2, 1], [0, 1, 2], [1, 0, 2]];
 
 impl PreparedRay {
     /// A ray from `origin` along unit `dir`, testing `tmin..=tmax`.
@@ -68,28 +74,47 @@ impl PreparedRay {
         // obvhs takes a direction's sign from `d < 0` but inverts −0.0 to −1/ε: the two disagree for
         // negative zero and the box tests miss everything. Fold −0.0 to +0.0.
         let dir = dir.map(|c| if c == 0.0 { 0.0 } else { c });
-        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+        // `Ray::new`'s values, without its debug-build finiteness checks on every shadow ray.
+        let inv = |c: f32| obvhs::ray::safe_inverse(c);
+        let ray = Ray {
+            origin: origin.into(),
+            direction: dir.into(),
+            inv_direction: Vec3A::new(inv(dir.x), inv(dir.y), inv(dir.z)),
+            tmin,
+            tmax,
+        };
         // Woop et al. §3: permute so that the largest direction component is "z".
         let kz = dir.abs().max_position();
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let axes = (2 * kz + usize::from(dir[kz] < 0.0)) as u8;
+        let [kx, ky, _] = AXES[axes as usize];
         let shear = Vec3::new(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
-        Self { ray, k: [kx, ky, kz], shear }
+        Self { ray, axes, shear }
     }
 
     /// Hit distance and barycentric weights `(w0, w1, w2)` of the corners, or `None`.
     #[inline]
     pub fn intersect(&self, v: &[Vec3A; 3]) -> Option<(f32, Vec3)> {
-        let o: Vec3 = self.ray.origin.into();
-        let [kx, ky, kz] = self.k;
-        let (a, b, c) = (Vec3::from(v[0]) - o, Vec3::from(v[1]) - o, Vec3::from(v[2]) - o);
+        match self.axes {
+            0 => self.intersect_in::<1, 2, 0>(v),
+            1 => self.intersect_in::<2, 1, 0>(v),
+            2 => self.intersect_in::<2, 0, 1>(v),
+            3 => self.intersect_in::<0, 2, 1>(v),
+            4 => self.intersect_in::<0, 1, 2>(v),
+            _ => self.intersect_in::<1, 0, 2>(v),
+        }
+    }
+
+    /// [`Self::intersect`] with the axis permutation `[KX, KY, KZ]` fixed at compile time (it must be
+    /// `AXES[self.axes]`): the one definition of the test, used by every query.
+    #[inline(always)]
+    fn intersect_in<const KX: usize, const KY: usize, const KZ: usize>(&self, v: &[Vec3A; 3]) -> Option<(f32, Vec3)> {
+        debug_assert_eq!([KX, KY, KZ], AXES[self.axes as usize]);
+        let o = self.ray.origin;
+        let (a, b, c) = (v[0] - o, v[1] - o, v[2] - o);
         let (sx, sy, sz) = (self.shear.x, self.shear.y, self.shear.z);
-        let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
-        let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
-        let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+        let (ax, ay) = (a[KX] - sx * a[KZ], a[KY] - sy * a[KZ]);
+        let (bx, by) = (b[KX] - sx * b[KZ], b[KY] - sy * b[KZ]);
+        let (cx, cy) = (c[KX] - sx * c[KZ], c[KY] - sy * c[KZ]);
         // Edge functions: e0 weighs corner 0 (edge 1–2), e1 corner 1, e2 corner 2.
         let mut e0 = cx * by - cy * bx;
         let mut e1 = ax * cy - ay * cx;
@@ -108,7 +133,7 @@ impl PreparedRay {
         if det == 0.0 {
             return None;
         }
-        let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+        let (az, bz, cz) = (sz * a[KZ], sz * b[KZ], sz * c[KZ]);
         let t = (e0 * az + e1 * bz + e2 * cz) / det;
         if !(t >= self.ray.tmin && t <= self.ray.tmax) {
             return None;
@@ -183,8 +208,76 @@ impl SceneBvh {
         if self.triangles.is_empty() {
             return true;
         }
+        match ray.axes {
+            0 => self.unoccluded_in::<1, 2, 0>(ray),
+            1 => self.unoccluded_in::<2, 1, 0>(ray),
+            2 => self.unoccluded_in::<2, 0, 1>(ray),
+            3 => self.unoccluded_in::<0, 2, 1>(ray),
+            4 => self.unoccluded_in::<0, 1, 2>(ray),
+            _ => self.unoccluded_in::<1, 0, 2>(ray),
+        }
+    }
+
+    /// Any-hit traversal of the compressed wide BVH (Ylitie, Karras & Laine, "Efficient
+    /// Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs", HPG 2017, Algorithm 1: node
+    /// groups and triangle groups as (base index, bit mask) pairs, children visited in the ray
+    /// octant's order), stopping at the first triangle the watertight test accepts. obvhs's own
+    /// node test decides which children a ray enters; the triangle test is inlined with its axis
+    /// permutation fixed (`[KX, KY, KZ]` = `AXES[ray.axes]`), and nothing is allocated.
+    ///
+    /// Which triangles are tested, and in which order, changes only the time: the answer is
+    /// whether any triangle's own test accepts the ray, and that test depends on the triangle and
+    /// the ray alone.
+    fn unoccluded_in<const KX: usize, const KY: usize, const KZ: usize>(&self, ray: &PreparedRay) -> bool {
+        /// The deepest node stack a traversal can need: one group per level (obvhs keeps its
+        /// trees under 32 levels).
+        const STACK: usize = 32;
+        let nodes = &self.bvh.nodes;
         let tris = &self.triangles;
-        self.bvh.ray_traverse_miss(ray.ray, |_, id| ray.intersect(&tris[id].v).map_or(f32::INFINITY, |h| h.0))
+        let r = &{ ray.ray };
+        // The ray octant, mirrored (obvhs's `ray_get_octant_inv4`): it orders the children.
+        let oct_inv4 = (if r.direction.x < 0.0 { 0 } else { 0x0404_0404 })
+            | (if r.direction.y < 0.0 { 0 } else { 0x0202_0202 })
+            | (if r.direction.z < 0.0 { 0 } else { 0x0101_0101 });
+        let mut stack = [(0u32, 0u32); STACK];
+        let mut depth = 0usize;
+        // Node group: the children's first node index, their hit bits in the top byte (by slot)
+        // and the internal-node mask in the low byte. The root group holds the root alone.
+        let mut group = (0u32, 0x8000_0000u32);
+        loop {
+            let (base, mut hits) = group;
+            if hits & 0xff00_0000 == 0 {
+                // This group is done: take the next one, or stop.
+                if depth == 0 {
+                    return true;
+                }
+                depth -= 1;
+                group = stack[depth];
+                continue;
+            }
+            // The nearest child left (highest bit), then the rest of the group back on the stack.
+            let bit = 31 - hits.leading_zeros();
+            let imask = hits;
+            hits &= !(1u32 << bit);
+            if hits & 0xff00_0000 != 0 {
+                stack[depth] = (base, hits);
+                depth += 1;
+            }
+            let slot = (bit - 24) ^ (oct_inv4 & 0xff);
+            let node = &nodes[(base + (imask & !(u32::MAX << slot)).count_ones()) as usize];
+            let hitmask = node.intersect_ray(r, oct_inv4);
+            group = (node.child_base_idx, (hitmask & 0xff00_0000) | u32::from(node.imask));
+            // The triangles of the leaf children the ray enters (contiguous from the node's base).
+            let mut leaf = hitmask & 0x00ff_ffff;
+            while leaf != 0 {
+                let k = 31 - leaf.leading_zeros();
+                leaf &= !(1u32 << k);
+                let tri = &tris[(node.primitive_base_idx + k) as usize];
+                if ray.intersect_in::<KX, KY, KZ>(&tri.v).is_some() {
+                    return false;
+                }
+            }
+        }
     }
 
     /// The closest hit accepted by `accept` (given the triangle and whether the ray meets its front).

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use shadowlab_core::sampling::{EmitterSample, Rng, jittered_grid, sample_emitter};
+use shadowlab_core::sampling::{EmitterSample, EmitterSampler, Rng, jittered_grid};
 use shadowlab_core::{Light, SurfaceBuffer};
 
 use crate::bvh::{PreparedRay, SceneBvh};
@@ -91,6 +91,8 @@ pub fn light_visibility(
     let done = AtomicUsize::new(0);
     let rays = std::sync::atomic::AtomicU64::new(0);
     let mut values = vec![f32::NAN; total];
+    // The emitter's own constants (a cone's cosine and frame), once for all samples.
+    let sampler = EmitterSampler::new(light);
     values.par_chunks_mut(width.max(1)).enumerate().for_each(|(row, out)| {
         let mut pattern = Vec::with_capacity(samples as usize);
         let mut batch = Vec::with_capacity(samples as usize);
@@ -118,7 +120,7 @@ pub fn light_visibility(
             batch.clear();
             let mut visible = 0usize;
             for &u in &pattern {
-                match sample_ray(light, origin, n, u, eps) {
+                match sample_ray(&sampler, origin, n, u, eps) {
                     SampleRay::Trace(ray) => batch.push(ray),
                     SampleRay::Visible => visible += 1,
                     SampleRay::Hidden => {}
@@ -155,7 +157,7 @@ pub fn samples_for(light: &Light, samples: u32) -> u32 {
 /// geometric normal `n`, whose tangent plane hides samples behind it).
 #[inline]
 fn sample_visible(bvh: &SceneBvh, light: &Light, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> bool {
-    match sample_ray(light, origin, n, u, eps) {
+    match sample_ray(&EmitterSampler::new(light), origin, n, u, eps) {
         SampleRay::Trace(ray) => bvh.unoccluded(&ray),
         SampleRay::Visible => true,
         SampleRay::Hidden => false,
@@ -173,8 +175,8 @@ enum SampleRay {
 
 /// The shadow ray of emitter sample `u` seen from `origin` (see [`sample_visible`]).
 #[inline]
-fn sample_ray(light: &Light, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> SampleRay {
-    let (dir, tmax) = match sample_emitter(light, origin, u) {
+fn sample_ray(sampler: &EmitterSampler, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> SampleRay {
+    let (dir, tmax) = match sampler.sample(origin, u) {
         EmitterSample::Point(q) => {
             let d = q - origin;
             let len = d.length();

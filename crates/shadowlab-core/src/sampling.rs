@@ -97,11 +97,15 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 /// when `u` is uniform: the concentric disk point is lifted onto the spherical cap so that equal
 /// areas stay equal (radius² ∝ 1 − cos θ).
 pub fn cone_direction(axis: Vec3, cos_max: f32, u: Vec2) -> Vec3 {
+    cone_direction_in(axis, cos_max, orthonormal_basis(axis), u)
+}
+
+/// [`cone_direction`] with the axis's [`orthonormal_basis`] `(t, b)` given.
+fn cone_direction_in(axis: Vec3, cos_max: f32, (t, b): (Vec3, Vec3), u: Vec2) -> Vec3 {
     let d = concentric_disk(u);
     let r2 = d.length_squared();
     let cos_t = 1.0 - r2 * (1.0 - cos_max);
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (t, b) = orthonormal_basis(axis);
     let dir = if r2 > 0.0 { d / r2.sqrt() } else { Vec2::X };
     (axis * cos_t + (t * dir.x + b * dir.y) * sin_t).normalize()
 }
@@ -131,25 +135,66 @@ pub enum EmitterSample {
 /// - directional light: the cone of directions within the angular radius;
 /// - hard lights: the centre or the single direction, whatever `u`.
 pub fn sample_emitter(light: &Light, p: Vec3, u: Vec2) -> EmitterSample {
-    match light.kind {
-        LightKind::Point { position, radius } | LightKind::Spot { position, radius, .. } => {
-            if radius <= 0.0 {
-                return EmitterSample::Point(position);
+    EmitterSampler::new(light).sample(p, u)
+}
+
+/// [`sample_emitter`] for many samples of one light: what depends on the light alone (a
+/// rectangle's second axis; a cone's cosine and frame) is computed once, here, instead of per
+/// sample. The samples are the same, bit for bit: `sample_emitter` is this.
+#[derive(Debug, Clone, Copy)]
+pub struct EmitterSampler {
+    kind: Prepared,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Prepared {
+    Fixed(EmitterSample),
+    Sphere { position: Vec3, radius: f32 },
+    Rect { position: Vec3, tangent: Vec3, bitangent: Vec3, width: f32, height: f32 },
+    Cone { axis: Vec3, cos_max: f32, basis: (Vec3, Vec3) },
+}
+
+impl EmitterSampler {
+    pub fn new(light: &Light) -> Self {
+        let kind = match light.kind {
+            LightKind::Point { position, radius } | LightKind::Spot { position, radius, .. } => {
+                if radius <= 0.0 {
+                    Prepared::Fixed(EmitterSample::Point(position))
+                } else {
+                    Prepared::Sphere { position, radius }
+                }
             }
-            let axis = (position - p).normalize_or(Vec3::Y);
-            let (t, b) = orthonormal_basis(axis);
-            let d = radius * concentric_disk(u);
-            EmitterSample::Point(position + t * d.x + b * d.y)
-        }
-        LightKind::Rect { position, direction, tangent, width, height } => {
-            let bitangent = direction.cross(tangent);
-            EmitterSample::Point(position + (u.x - 0.5) * width * tangent + (u.y - 0.5) * height * bitangent)
-        }
-        LightKind::Directional { direction, angular_radius } => {
-            if angular_radius <= 0.0 {
-                EmitterSample::Direction(-direction)
-            } else {
-                EmitterSample::Direction(cone_direction(-direction, angular_radius.cos(), u))
+            LightKind::Rect { position, direction, tangent, width, height } => {
+                Prepared::Rect { position, tangent, bitangent: direction.cross(tangent), width, height }
+            }
+            LightKind::Directional { direction, angular_radius } => {
+                if angular_radius <= 0.0 {
+                    Prepared::Fixed(EmitterSample::Direction(-direction))
+                } else {
+                    let axis = -direction;
+                    Prepared::Cone { axis, cos_max: angular_radius.cos(), basis: orthonormal_basis(axis) }
+                }
+            }
+        };
+        Self { kind }
+    }
+
+    /// The sample of `u` seen from `p` (see [`sample_emitter`]).
+    #[inline]
+    pub fn sample(&self, p: Vec3, u: Vec2) -> EmitterSample {
+        match self.kind {
+            Prepared::Fixed(sample) => sample,
+            Prepared::Sphere { position, radius } => {
+                let axis = (position - p).normalize_or(Vec3::Y);
+                let (t, b) = orthonormal_basis(axis);
+                let d = radius * concentric_disk(u);
+                EmitterSample::Point(position + t * d.x + b * d.y)
+            }
+            Prepared::Rect { position, tangent, bitangent, width, height } => {
+                EmitterSample::Point(position + (u.x - 0.5) * width * tangent + (u.y - 0.5) * height * bitangent)
+            }
+            Prepared::Cone { axis, cos_max, basis } => {
+                EmitterSample::Direction(cone_direction_in(axis, cos_max, basis, u))
             }
         }
     }

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use shadowlab_core::sampling::{EmitterSample, Rng, jittered_grid, sample_emitter};
+use shadowlab_core::sampling::{EmitterSample, EmitterSampler, Rng, jittered_grid};
 use shadowlab_core::{Light, SurfaceBuffer};
 
 use crate::bvh::{PreparedRay, SceneBvh};
@@ -91,8 +91,11 @@ pub fn light_visibility(
     let done = AtomicUsize::new(0);
     let rays = std::sync::atomic::AtomicU64::new(0);
     let mut values = vec![f32::NAN; total];
+    // The emitter's own constants (a cone's cosine and frame), once for all samples.
+    let sampler = EmitterSampler::new(light);
     values.par_chunks_mut(width.max(1)).enumerate().for_each(|(row, out)| {
         let mut pattern = Vec::with_capacity(samples as usize);
+        let mut batch = Vec::with_capacity(samples as usize);
         let mut row_rays = 0u64;
         for (x, v) in out.iter_mut().enumerate() {
             let i = row * width + x;
@@ -110,7 +113,20 @@ pub fn light_visibility(
             let stream = (u64::from(light_index) << 40) ^ i as u64;
             let mut rng = Rng::for_stream(settings.seed, stream);
             jittered_grid(samples, &mut rng, &mut pattern);
-            let visible = pattern.iter().filter(|&&u| sample_visible(bvh, light, origin, n, u, eps)).count();
+            // All of the pixel's rays are prepared first, then traced: the sampling arithmetic
+            // (square roots, divisions, the cone's sines) runs in a loop of its own, where
+            // independent samples overlap, instead of between traversals. Only the count of
+            // visible samples is kept, which the order of tracing cannot change.
+            batch.clear();
+            let mut visible = 0usize;
+            for &u in &pattern {
+                match sample_ray(&sampler, origin, n, u, eps) {
+                    SampleRay::Trace(ray) => batch.push(ray),
+                    SampleRay::Visible => visible += 1,
+                    SampleRay::Hidden => {}
+                }
+            }
+            visible += batch.iter().filter(|ray| bvh.unoccluded(ray)).count();
             row_rays += samples as u64;
             *v = visible as f32 / samples as f32;
         }
@@ -141,21 +157,40 @@ pub fn samples_for(light: &Light, samples: u32) -> u32 {
 /// geometric normal `n`, whose tangent plane hides samples behind it).
 #[inline]
 fn sample_visible(bvh: &SceneBvh, light: &Light, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> bool {
-    let (dir, tmax) = match sample_emitter(light, origin, u) {
+    match sample_ray(&EmitterSampler::new(light), origin, n, u, eps) {
+        SampleRay::Trace(ray) => bvh.unoccluded(&ray),
+        SampleRay::Visible => true,
+        SampleRay::Hidden => false,
+    }
+}
+
+/// What an emitter sample needs: a shadow ray, or nothing because its answer is already known.
+enum SampleRay {
+    Trace(PreparedRay),
+    /// The sample lies within ε of the origin: nothing can hide it.
+    Visible,
+    /// Behind the tangent plane: the surface itself hides the sample.
+    Hidden,
+}
+
+/// The shadow ray of emitter sample `u` seen from `origin` (see [`sample_visible`]).
+#[inline]
+fn sample_ray(sampler: &EmitterSampler, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> SampleRay {
+    let (dir, tmax) = match sampler.sample(origin, u) {
         EmitterSample::Point(q) => {
             let d = q - origin;
             let len = d.length();
             if len <= eps {
-                return true;
+                return SampleRay::Visible;
             }
             (d / len, len - eps)
         }
         EmitterSample::Direction(d) => (d, f32::INFINITY),
     };
     if n.dot(dir) <= 0.0 {
-        return false; // behind the tangent plane: the surface itself hides the sample
+        return SampleRay::Hidden; // behind the tangent plane: the surface itself hides the sample
     }
-    bvh.unoccluded(&PreparedRay::new(origin, dir, 0.0, tmax))
+    SampleRay::Trace(PreparedRay::new(origin, dir, 0.0, tmax))
 }
 
 /// Reference visibility of several lights, with their total timing.

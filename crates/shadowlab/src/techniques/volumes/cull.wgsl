@@ -1,14 +1,18 @@
 // A drag step's region (FrameContext::region): which casters' volumes can change its count.
 //
 // A closed volume that holds no surface point of the region adds nothing to any of its pixels'
-// counts (z-fail counts the volumes behind the surface, z-pass and ZP+ the ones between the near
-// plane and it), unless it reaches the pyramid of the eye and the region's near rectangle, where
-// the counts start: the CPU keeps those (`plan::cull_inputs`, flag KEEP). One workgroup per light
-// sample bounds the region's relevant surface points (the only pixels whose resolve reads the
-// mask) and tests that box against each caster's shadow hulls (shadowlab_core::volumes::
-// shadow_hull of its box and of its triangles' parts), writing the sample's indirect draws with
-// the casters that miss it set to no instance. The CPU's own test (`plan::region_casters`) can
-// only use the region's frustum; this one sees the surface that is actually there.
+// counts as long as it is left out of every draw: z-fail counts the volumes behind the surface;
+// ZP+ starts at the count of the near plane (its light caps from the light) and counts in front
+// of the surface, so a volume entered and left before the surface adds 0 to both or to neither.
+// Plain z-pass starts at 0, so the casters its plan lists as reaching the near pyramid are kept
+// whatever the surface (flag KEEP, `plan::CullInputs::push_sample`; none when `auto` chose
+// z-pass), and a robust z-pass, whose start was counted at the eye, is not culled here at all.
+// One workgroup per light sample bounds the region's relevant surface points (the only pixels
+// whose resolve reads the mask) and tests that box against each caster's shadow hulls
+// (shadowlab_core::volumes::shadow_hull of its box and of its triangles' parts), writing the
+// sample's indirect draws with the casters that miss it set to no instance. The CPU's own test
+// (`plan::region_casters`) can only use the region's frustum; this one sees the surface that is
+// actually there.
 
 // #include "resolve.wgsl"
 

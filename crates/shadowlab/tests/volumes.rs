@@ -262,10 +262,17 @@ fn the_eye_looking_through_an_open_face_sees_its_shadow() {
         for spec in ["volumes", "volumes:mode=zpass", "volumes:mode=zpplus", "volumes:mode=zfail"] {
             let run = render(&gpu, &s, &v, SIZE, spec, &[LightId(0)]);
             let (wrong, n) = wrong_frac(&s, &run, LightId(0), &v);
-            println!("card seen from behind, {} {spec}: {:.4}% of {n} wrong", s.lights[0].name, 100.0 * wrong);
-            // The card's shadow is on screen under it: the test sees what it is about.
             let shadowed = run.visibility(LightId(0)).iter().filter(|&&x| x < 0.5).count();
+            println!(
+                "card seen from behind, {} {spec}: {:.4}% of {n} wrong, {shadowed} pixels shadowed",
+                s.lights[0].name,
+                100.0 * wrong
+            );
+            // The card's shadow is on screen under it: the test sees what it is about (measured
+            // 2257 shadowed pixels under the sun, 3653 under the point light; bound about half).
             assert!(shadowed > 1000, "{spec}: only {shadowed} shadowed pixels");
+            // Measured 25 283 and 25 229 pixels compared (bound 5000, a fifth); 0% wrong in every
+            // mode, 1.40% with z-pass before the see-through light caps (bound EXACT, the issue's).
             assert!(n > 5000 && wrong <= EXACT, "{spec}: wrong_frac {wrong}");
         }
     }

@@ -16,6 +16,21 @@ use glam::{Affine3A, Vec3, Vec3A, Vec4};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::Ray;
 
+/// Calls `$recv.$method::<KX, KY, KZ>(args)` for the axis permutation numbered `$axes` (the
+/// watertight test's dominant axis last, `PreparedRay::axes`): each permutation compiled apart.
+macro_rules! by_axes {
+    ($axes:expr, $recv:ident . $method:ident ( $($arg:expr),* )) => {
+        match $axes {
+            0 => $recv.$method::<1, 2, 0>($($arg),*),
+            1 => $recv.$method::<2, 1, 0>($($arg),*),
+            2 => $recv.$method::<2, 0, 1>($($arg),*),
+            3 => $recv.$method::<0, 2, 1>($($arg),*),
+            4 => $recv.$method::<0, 1, 2>($($arg),*),
+            _ => $recv.$method::<1, 0, 2>($($arg),*),
+        }
+    };
+}
+
 /// Ray origin offset as a fraction of the scene diagonal (DESIGN.md §3: relative to the magnitude of p, so a translated scene has the same truth).
 pub const EPSILON_SCALE: f32 = 1.0e-5;
 /// Ray origin offset in float steps of the position's largest coordinate (Wächter & Binder, Ray
@@ -94,14 +109,7 @@ impl PreparedRay {
     /// Hit distance and barycentric weights `(w0, w1, w2)` of the corners, or `None`.
     #[inline]
     pub fn intersect(&self, v: &[Vec3A; 3]) -> Option<(f32, Vec3)> {
-        match self.axes {
-            0 => self.intersect_in::<1, 2, 0>(v),
-            1 => self.intersect_in::<2, 1, 0>(v),
-            2 => self.intersect_in::<2, 0, 1>(v),
-            3 => self.intersect_in::<0, 2, 1>(v),
-            4 => self.intersect_in::<0, 1, 2>(v),
-            _ => self.intersect_in::<1, 0, 2>(v),
-        }
+        by_axes!(self.axes, self.intersect_in(v))
     }
 
     /// [`Self::intersect`] with the axis permutation `[KX, KY, KZ]` fixed at compile time (it must be
@@ -266,14 +274,7 @@ impl SceneBvh {
         if self.triangles.is_empty() {
             return None;
         }
-        match ray.axes {
-            0 => self.occluder_in::<1, 2, 0>(ray),
-            1 => self.occluder_in::<2, 1, 0>(ray),
-            2 => self.occluder_in::<2, 0, 1>(ray),
-            3 => self.occluder_in::<0, 2, 1>(ray),
-            4 => self.occluder_in::<0, 1, 2>(ray),
-            _ => self.occluder_in::<1, 0, 2>(ray),
-        }
+        by_axes!(ray.axes, self.occluder_in(ray))
     }
 
     /// Any-hit traversal of the compressed wide BVH (Ylitie, Karras & Laine, "Efficient

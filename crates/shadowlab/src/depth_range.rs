@@ -162,7 +162,7 @@ impl DepthRange {
     }
 
     /// Reduces this frame's depth (and bins its samples as `bins` says, with samples) and queues
-    /// its readback (skipped when every slot is busy).
+    /// its readback; false when every slot was busy and nothing was recorded.
     pub fn record(
         &mut self,
         shared: &Shared,
@@ -171,8 +171,8 @@ impl DepthRange {
         timer: &mut GpuTimer,
         frame: u64,
         bins: Option<BinSetup>,
-    ) {
-        let Some(slot) = self.slots.iter().position(|s| matches!(s, Slot::Idle)) else { return };
+    ) -> bool {
+        let Some(slot) = self.slots.iter().position(|s| matches!(s, Slot::Idle)) else { return false };
         let device = &shared.gpu.device;
         let queue = &shared.gpu.queue;
         let mut empty = EMPTY.to_vec();
@@ -220,6 +220,7 @@ impl DepthRange {
         }
         encoder.copy_buffer_to_buffer(&self.range, 0, &self.staging[slot], 0, 4 * self.words as u64);
         self.slots[slot] = Slot::Written(frame, setup);
+        true
     }
 
     /// The latest range read back and the frame it was measured in.

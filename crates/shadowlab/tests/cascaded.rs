@@ -159,3 +159,28 @@ fn bad_cascade_configurations_are_refused() {
     let e = r.set_technique(lamp, &shadowlab::TechniqueSpec::parse("cascaded", &[]).unwrap()).unwrap_err().to_string();
     assert!(e.contains("does not support point light"), "{e}");
 }
+
+/// The visible depths change only with the surface: once a measurement of the current view is
+/// read back, still frames record no depth reduction (a still frame stays the G-buffer and the
+/// lighting), and a camera move measures again. The maps stay fitted throughout.
+#[test]
+fn still_frames_measure_the_visible_depths_once() {
+    let gpu = gpu();
+    let scene = load_scene("terrain").unwrap().scene;
+    let view = scene.view("ground").unwrap().clone();
+    let mut run = render(&gpu, &scene, &view, 64, "cascaded:splits=2,map_size=512", &[LightId(0)]);
+    run.renderer.render().unwrap();
+    let measured = run.stat("sun", "depth_passes");
+    assert!(measured >= 1.0, "the first frames measure: {measured}");
+    for _ in 0..4 {
+        let work = run.renderer.render().unwrap().work;
+        assert_eq!((work.map_views, work.resolves), (0, 0), "a still frame re-does nothing: {work:?}");
+    }
+    assert_eq!(run.stat("sun", "depth_passes"), measured, "still frames measure nothing");
+    assert_eq!(run.stat("sun", "auto_fitted"), 1.0);
+    let mut moved = view.clone();
+    moved.position += glam::Vec3::new(2.0, 0.0, 1.0);
+    run.renderer.set_view(&moved);
+    run.renderer.render().unwrap();
+    assert_eq!(run.stat("sun", "depth_passes"), measured + 1.0, "a camera move measures again");
+}

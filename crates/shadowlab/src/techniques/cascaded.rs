@@ -99,6 +99,12 @@ struct Cascaded {
     last: Option<CascadeFrame>,
     /// Frames between the depth range measured and its use (auto_near).
     latency: Option<u64>,
+    /// What the visible depths depend on (the surface's generation, the instances' epoch, the
+    /// bins' frame) as last measured, and the frame it took that state: once a measurement of a
+    /// frame since then is read back, still frames measure nothing.
+    measuring: Option<((u64, u64, Option<BinSetup>), u64)>,
+    /// Depth reductions recorded (`technique_stats`: `depth_passes`).
+    depth_passes: u64,
     triangles: u64,
 }
 
@@ -198,6 +204,8 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         depth_range,
         last: None,
         latency: None,
+        measuring: None,
+        depth_passes: 0,
         triangles: 0,
     }))
 }
@@ -282,6 +290,9 @@ impl Cascaded {
             let fitted = self.depth_range.as_ref().and_then(DepthRange::measured).is_some_and(|m| m.samples.is_some());
             out.push(("auto_fitted".into(), if fitted { 1.0 } else { 0.0 }));
         }
+        if self.depth_range.is_some() {
+            out.push(("depth_passes".into(), self.depth_passes as f64));
+        }
         out
     }
 }
@@ -353,7 +364,16 @@ impl ShadowTechnique for Cascaded {
                     forward: view.forward(),
                 }
             });
-            dr.record(ctx.shared, ctx.encoder, ctx.surface, ctx.timer, ctx.frame_index, bins);
+            let key = (ctx.surface.generation(), ctx.live.instances_epoch(), bins);
+            let since = match self.measuring {
+                Some((k, since)) if k == key => since,
+                _ => ctx.frame_index,
+            };
+            self.measuring = Some((key, since));
+            let current = dr.latest().is_some_and(|(_, measured)| measured >= since);
+            if !current && dr.record(ctx.shared, ctx.encoder, ctx.surface, ctx.timer, ctx.frame_index, bins) {
+                self.depth_passes += 1;
+            }
         }
         self.triangles = ctx.gpu_scene.triangles;
         self.last = Some(frame);

@@ -88,6 +88,9 @@ struct SelectionUniform {
     distances: [Vec4; 5],
 }
 
+/// What the visible depths depend on: the surface's generation, the instances' epoch, the bins.
+type MeasuredState = (u64, u64, Option<BinSetup>);
+
 struct Cascaded {
     params: ParamSet,
     settings: CascadeSettings,
@@ -102,7 +105,7 @@ struct Cascaded {
     /// What the visible depths depend on (the surface's generation, the instances' epoch, the
     /// bins' frame) as last measured, and the frame it took that state: once a measurement of a
     /// frame since then is read back, still frames measure nothing.
-    measuring: Option<((u64, u64, Option<BinSetup>), u64)>,
+    measuring: Option<(MeasuredState, u64)>,
     /// Depth reductions recorded (`technique_stats`: `depth_passes`).
     depth_passes: u64,
     triangles: u64,

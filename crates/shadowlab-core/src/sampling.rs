@@ -19,16 +19,19 @@ impl Rng {
 
     /// A generator for one item of a stream: the same `(seed, stream)` always gives the same numbers,
     /// whatever order or thread the items run in.
+    #[inline]
     pub fn for_stream(seed: u64, stream: u64) -> Self {
         Self(mix64(seed ^ mix64(stream.wrapping_add(0x9E37_79B9_7F4A_7C15))))
     }
 
+    #[inline]
     pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         mix64(self.0)
     }
 
     /// Uniform in [0, 1), 24 bits.
+    #[inline]
     pub fn next_f32(&mut self) -> f32 {
         (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
     }
@@ -67,6 +70,7 @@ pub fn grid_centres(n: u32) -> Vec<Vec2> {
 
 /// `n` jittered-grid samples on the unit square: one uniform sample in each cell of a
 /// `grid_dims(n)` grid.
+#[inline]
 pub fn jittered_grid(n: u32, rng: &mut Rng, out: &mut Vec<Vec2>) {
     let (cols, rows) = grid_dims(n);
     out.clear();
@@ -79,6 +83,7 @@ pub fn jittered_grid(n: u32, rng: &mut Rng, out: &mut Vec<Vec2>) {
 
 /// Shirley & Chiu's concentric map (1997) from the unit square to the unit disk: area-preserving and
 /// low-distortion, so a stratified square stays stratified on the disk.
+#[inline]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
     let a = 2.0 * u - Vec2::ONE;
     if a == Vec2::ZERO {
@@ -101,6 +106,7 @@ pub fn cone_direction(axis: Vec3, cos_max: f32, u: Vec2) -> Vec3 {
 }
 
 /// [`cone_direction`] with the axis's [`orthonormal_basis`] `(t, b)` given.
+#[inline]
 fn cone_direction_in(axis: Vec3, cos_max: f32, (t, b): (Vec3, Vec3), u: Vec2) -> Vec3 {
     let d = concentric_disk(u);
     let r2 = d.length_squared();
@@ -112,6 +118,7 @@ fn cone_direction_in(axis: Vec3, cos_max: f32, (t, b): (Vec3, Vec3), u: Vec2) ->
 
 /// Two unit vectors completing `n` (unit) to a right-handed orthonormal frame, without branches
 /// that jump: Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017.
+#[inline]
 pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let sign = 1.0f32.copysign(n.z);
     let a = -1.0 / (sign + n.z);

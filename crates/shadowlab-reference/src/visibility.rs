@@ -93,43 +93,9 @@ pub fn light_visibility(
     let mut values = vec![f32::NAN; total];
     // The emitter's own constants (a cone's cosine and frame), once for all samples.
     let sampler = EmitterSampler::new(light);
+    let rows = Rows { bvh, surface, light, sampler, samples, light_index, seed: settings.seed, width };
     values.par_chunks_mut(width.max(1)).enumerate().for_each(|(row, out)| {
-        let mut pattern = Vec::with_capacity(samples as usize);
-        let mut batch = Vec::with_capacity(samples as usize);
-        let mut row_rays = 0u64;
-        for (x, v) in out.iter_mut().enumerate() {
-            let i = row * width + x;
-            if !surface.is_relevant(i, light) {
-                continue;
-            }
-            let (p, n) = (surface.positions[i], surface.geometric_normals[i]);
-            let eps = ray_epsilon(p, bvh.scene_diagonal);
-            let origin = p + n * eps;
-            if samples == 1 && light.is_hard() {
-                row_rays += 1;
-                *v = if sample_visible(bvh, light, origin, n, Vec2::splat(0.5), eps) { 1.0 } else { 0.0 };
-                continue;
-            }
-            let stream = (u64::from(light_index) << 40) ^ i as u64;
-            let mut rng = Rng::for_stream(settings.seed, stream);
-            jittered_grid(samples, &mut rng, &mut pattern);
-            // All of the pixel's rays are prepared first, then traced: the sampling arithmetic
-            // (square roots, divisions, the cone's sines) runs in a loop of its own, where
-            // independent samples overlap, instead of between traversals. Only the count of
-            // visible samples is kept, which the order of tracing cannot change.
-            batch.clear();
-            let mut visible = 0usize;
-            for &u in &pattern {
-                match sample_ray(&sampler, origin, n, u, eps) {
-                    SampleRay::Trace(ray) => batch.push(ray),
-                    SampleRay::Visible => visible += 1,
-                    SampleRay::Hidden => {}
-                }
-            }
-            visible += batch.iter().filter(|ray| bvh.unoccluded(ray)).count();
-            row_rays += samples as u64;
-            *v = visible as f32 / samples as f32;
-        }
+        let row_rays = rows.trace(row, out);
         rays.fetch_add(row_rays, Ordering::Relaxed);
         let d = done.fetch_add(out.len(), Ordering::Relaxed) + out.len();
         if let Some(progress) = progress {
@@ -144,6 +110,86 @@ pub fn light_visibility(
         relevant_pixels,
         rays: rays.into_inner(),
         seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// What tracing one row of one light's visibility needs.
+struct Rows<'a> {
+    bvh: &'a SceneBvh,
+    surface: &'a SurfaceBuffer,
+    light: &'a Light,
+    sampler: EmitterSampler,
+    samples: u32,
+    light_index: u32,
+    seed: u64,
+    width: usize,
+}
+
+impl Rows<'_> {
+    /// Writes V for the relevant pixels of row `row` into `out`; returns the rays traced.
+    fn trace(&self, row: usize, out: &mut [f32]) -> u64 {
+        #[cfg(target_arch = "x86_64")]
+        if shadowlab_core::bvh::has_modern_isa() {
+            // SAFETY: the CPU has every feature `trace_modern` is compiled for.
+            return unsafe { self.trace_modern(row, out) };
+        }
+        self.trace_in(row, out)
+    }
+
+    /// [`Self::trace_in`] compiled for the x86-64 of the last decade, as the BVH's traversal is
+    /// ([`shadowlab_core::bvh::has_modern_isa`]): the sampling arithmetic and the random streams
+    /// too. The same operations in the same order: the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn trace_modern(&self, row: usize, out: &mut [f32]) -> u64 {
+        self.trace_in(row, out)
+    }
+
+    #[inline(always)]
+    fn trace_in(&self, row: usize, out: &mut [f32]) -> u64 {
+        let (bvh, surface, light, samples) = (self.bvh, self.surface, self.light, self.samples);
+        let mut pattern = Vec::with_capacity(samples as usize);
+        let mut batch = Vec::with_capacity(samples as usize);
+        let mut row_rays = 0u64;
+        for (x, v) in out.iter_mut().enumerate() {
+            let i = row * self.width + x;
+            if !surface.is_relevant(i, light) {
+                continue;
+            }
+            let (p, n) = (surface.positions[i], surface.geometric_normals[i]);
+            let eps = ray_epsilon(p, bvh.scene_diagonal);
+            let origin = p + n * eps;
+            if samples == 1 && light.is_hard() {
+                row_rays += 1;
+                let visible = match sample_ray(&self.sampler, origin, n, Vec2::splat(0.5), eps) {
+                    SampleRay::Trace(ray) => bvh.unoccluded(&ray),
+                    SampleRay::Visible => true,
+                    SampleRay::Hidden => false,
+                };
+                *v = if visible { 1.0 } else { 0.0 };
+                continue;
+            }
+            let stream = (u64::from(self.light_index) << 40) ^ i as u64;
+            let mut rng = Rng::for_stream(self.seed, stream);
+            jittered_grid(samples, &mut rng, &mut pattern);
+            // All of the pixel's rays are prepared first, then traced: the sampling arithmetic
+            // (square roots, divisions, the cone's sines) runs in a loop of its own, where
+            // independent samples overlap, instead of between traversals. Only the count of
+            // visible samples is kept, which the order of tracing cannot change.
+            batch.clear();
+            let mut visible = 0usize;
+            for &u in &pattern {
+                match sample_ray(&self.sampler, origin, n, u, eps) {
+                    SampleRay::Trace(ray) => batch.push(ray),
+                    SampleRay::Visible => visible += 1,
+                    SampleRay::Hidden => {}
+                }
+            }
+            visible += batch.iter().filter(|ray| bvh.unoccluded(ray)).count();
+            row_rays += samples as u64;
+            *v = visible as f32 / samples as f32;
+        }
+        row_rays
     }
 }
 
@@ -174,7 +220,7 @@ enum SampleRay {
 }
 
 /// The shadow ray of emitter sample `u` seen from `origin` (see [`sample_visible`]).
-#[inline]
+#[inline(always)]
 fn sample_ray(sampler: &EmitterSampler, origin: Vec3, n: Vec3, u: Vec2, eps: f32) -> SampleRay {
     let (dir, tmax) = match sampler.sample(origin, u) {
         EmitterSample::Point(q) => {

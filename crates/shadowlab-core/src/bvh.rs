@@ -11,8 +11,9 @@
 
 use std::time::Duration;
 
+use crate::alpha::Coverage;
 use crate::{Instance, Scene};
-use glam::{Affine3A, Vec3, Vec3A, Vec4};
+use glam::{Affine3A, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::Ray;
 
@@ -172,12 +173,15 @@ impl PreparedRay {
     /// operations in the same order (no fused multiply-add: Rust never contracts), so each lane's
     /// answer is the scalar test's, bit for bit; a lane with an edge function exactly zero, which
     /// the scalar test decides in double precision, is handed to it.
+    ///
+    /// Returns the lanes hit as bits: with `ALL` every one, without it at least one when any is
+    /// (the first found).
     #[inline(always)]
-    fn any_of_four<const KX: usize, const KY: usize, const KZ: usize>(
+    fn hits_of_four<const KX: usize, const KY: usize, const KZ: usize, const ALL: bool>(
         &self,
         tris: [&[Vec3A; 3]; 4],
         n: usize,
-    ) -> Option<usize> {
+    ) -> u32 {
         let o = self.ray.origin;
         // Corner `c` of the four triangles relative to the origin, as x, y and z rows.
         let corner = |c: usize| {
@@ -203,19 +207,22 @@ impl PreparedRay {
             & det.cmpne(zero)
             & t.cmpge(Vec4::splat(self.ray.tmin))
             & t.cmple(Vec4::splat(self.ray.tmax));
-        let hit = hit.bitmask() & lanes & !exact;
-        if hit != 0 {
-            return Some(hit.trailing_zeros() as usize);
+        let mut hit = hit.bitmask() & lanes & !exact;
+        if hit != 0 && !ALL {
+            return hit;
         }
         let mut exact = exact;
         while exact != 0 {
             let j = exact.trailing_zeros() as usize;
             exact &= exact - 1;
             if self.intersect_in::<KX, KY, KZ>(tris[j]).is_some() {
-                return Some(j);
+                hit |= 1 << j;
+                if !ALL {
+                    return hit;
+                }
             }
         }
-        None
+        hit
     }
 }
 
@@ -235,6 +242,23 @@ pub struct SceneBvh {
     /// Diagonal of the scene bounds: the length scale for ray epsilons.
     pub scene_diagonal: f32,
     pub build_time: Duration,
+    /// Per triangle (BVH order): its entry in `masked`, or [`OPAQUE`]. Empty when no triangle's
+    /// material is alpha-masked, and then the traversal has no test to make.
+    cover: Vec<u32>,
+    masked: Vec<MaskedTriangle>,
+    coverages: Vec<Coverage>,
+    /// Alpha masks that could not be read (their materials keep the factor's alpha alone).
+    pub warnings: Vec<String>,
+}
+
+/// `SceneBvh::cover`'s mark of a triangle that blocks every ray it meets.
+const OPAQUE: u32 = u32::MAX;
+
+/// An alpha-masked triangle's texture coordinates, corner by corner as traced, and its coverage.
+#[derive(Debug, Clone, Copy)]
+struct MaskedTriangle {
+    uv: [Vec2; 3],
+    coverage: u32,
 }
 
 impl SceneBvh {
@@ -263,8 +287,68 @@ impl SceneBvh {
             )
         };
         // Store triangles in the BVH's leaf order, so traversal indexes them directly.
-        let triangles = bvh.primitive_indices.iter().map(|&i| triangles[i as usize]).collect();
-        Self { triangles, bvh, scene_diagonal: scene.bounds().diagonal(), build_time: start.elapsed() }
+        let triangles: Vec<WorldTriangle> = bvh.primitive_indices.iter().map(|&i| triangles[i as usize]).collect();
+        let mut out = Self {
+            triangles,
+            bvh,
+            scene_diagonal: scene.bounds().diagonal(),
+            build_time: Duration::ZERO,
+            cover: Vec::new(),
+            masked: Vec::new(),
+            coverages: Vec::new(),
+            warnings: Vec::new(),
+        };
+        out.find_masks(scene);
+        out.build_time = start.elapsed();
+        out
+    }
+
+    /// Fills the coverage table for the triangles of alpha-masked materials.
+    fn find_masks(&mut self, scene: &Scene) {
+        let mut by_material: Vec<Option<Option<u32>>> = vec![None; scene.materials.len()];
+        for (k, t) in self.triangles.iter().enumerate() {
+            let inst = &scene.instances[t.instance as usize];
+            let m = inst.material.index();
+            let coverage = *by_material[m].get_or_insert_with(|| {
+                let coverage = match Coverage::of(&scene.materials[m])? {
+                    Ok(c) => c,
+                    Err((c, warning)) => {
+                        self.warnings.push(warning);
+                        c
+                    }
+                };
+                self.coverages.push(coverage);
+                Some(self.coverages.len() as u32 - 1)
+            });
+            let Some(coverage) = coverage else { continue };
+            if self.cover.is_empty() {
+                self.cover = vec![OPAQUE; self.triangles.len()];
+            }
+            let mesh = scene.mesh(inst.mesh);
+            let mut corners = mesh.triangles[t.triangle as usize];
+            if inst.transform.matrix3.determinant() < 0.0 {
+                corners.swap(1, 2); // as `instance_triangles` does
+            }
+            let uv =
+                corners.map(|i| mesh.uvs.as_ref().and_then(|uvs| uvs.get(i as usize)).copied().unwrap_or(Vec2::ZERO));
+            self.cover[k] = self.masked.len() as u32;
+            self.masked.push(MaskedTriangle { uv, coverage });
+        }
+    }
+
+    /// Whether the ray's hit on triangle `t` (one its test accepts) blocks it: always, but on an
+    /// alpha-masked triangle where the texture's alpha at the hit is below the cutoff.
+    #[inline]
+    fn blocks(&self, t: usize, ray: &PreparedRay) -> bool {
+        let Some(&entry) = self.cover.get(t) else { return true };
+        if entry == OPAQUE {
+            return true;
+        }
+        let m = &self.masked[entry as usize];
+        // The scalar test is the four-lane one bit for bit: it accepts the ray too.
+        let Some((_, w)) = ray.intersect(&self.triangles[t].v) else { return true };
+        let uv = m.uv[0] * w.x + m.uv[1] * w.y + m.uv[2] * w.z;
+        self.coverages[m.coverage as usize].blocks(uv)
     }
 
     pub fn triangles(&self) -> &[WorldTriangle] {
@@ -297,7 +381,26 @@ impl SceneBvh {
             // SAFETY: the CPU has every feature `occluder_modern` is compiled for.
             return unsafe { self.occluder_modern(ray) };
         }
-        by_axes!(ray.axes, self.occluder_in(ray))
+        self.occluder_baseline(ray)
+    }
+
+    #[inline(always)]
+    fn occluder_baseline(&self, ray: &PreparedRay) -> Option<u32> {
+        if self.cover.is_empty() {
+            by_axes!(ray.axes, self.occluder_opaque_in(ray))
+        } else {
+            by_axes!(ray.axes, self.occluder_masked_in(ray))
+        }
+    }
+
+    #[inline(always)]
+    fn occluder_opaque_in<const KX: usize, const KY: usize, const KZ: usize>(&self, ray: &PreparedRay) -> Option<u32> {
+        self.occluder_in::<KX, KY, KZ, false>(ray)
+    }
+
+    #[inline(always)]
+    fn occluder_masked_in<const KX: usize, const KY: usize, const KZ: usize>(&self, ray: &PreparedRay) -> Option<u32> {
+        self.occluder_in::<KX, KY, KZ, true>(ray)
     }
 
     /// [`Self::occluder_in`] compiled for the x86-64 of the last decade (the features of
@@ -308,7 +411,7 @@ impl SceneBvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     unsafe fn occluder_modern(&self, ray: &PreparedRay) -> Option<u32> {
-        by_axes!(ray.axes, self.occluder_in(ray))
+        self.occluder_baseline(ray)
     }
 
     /// Any-hit traversal of the compressed wide BVH (Ylitie, Karras & Laine, "Efficient
@@ -321,8 +424,14 @@ impl SceneBvh {
     /// Which triangles are tested, and in which order, changes only the time: the answer is
     /// whether any triangle's own test accepts the ray, and that test depends on the triangle and
     /// the ray alone.
+    ///
+    /// `MASKED`: the scene has alpha-masked triangles, and a hit on one blocks the ray only where
+    /// its texture is opaque ([`Self::blocks`]); the traversal then goes on past the holes.
     #[inline(always)]
-    fn occluder_in<const KX: usize, const KY: usize, const KZ: usize>(&self, ray: &PreparedRay) -> Option<u32> {
+    fn occluder_in<const KX: usize, const KY: usize, const KZ: usize, const MASKED: bool>(
+        &self,
+        ray: &PreparedRay,
+    ) -> Option<u32> {
         /// The deepest node stack a traversal can need: one group per level (obvhs keeps its
         /// trees under 32 levels).
         const STACK: usize = 32;
@@ -372,8 +481,13 @@ impl SceneBvh {
                     leaf &= leaf - 1;
                     n += 1;
                 }
-                if let Some(j) = ray.any_of_four::<KX, KY, KZ>(four.map(|i| &tris[i].v), n) {
-                    return Some(four[j] as u32);
+                let mut hits = ray.hits_of_four::<KX, KY, KZ, MASKED>(four.map(|i| &tris[i].v), n);
+                while hits != 0 {
+                    let t = four[hits.trailing_zeros() as usize];
+                    hits &= hits - 1;
+                    if !MASKED || self.blocks(t, ray) {
+                        return Some(t as u32);
+                    }
                 }
             }
         }
@@ -431,6 +545,82 @@ pub fn instance_triangles<'a>(scene: &'a Scene, inst: &Instance) -> impl Iterato
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A 2 m square at height `y` over x, z ∈ [−1, 1], with texture coordinates u = (x + 1)/2 and
+    /// v = (z + 1)/2.
+    fn card(scene: &mut Scene, name: &str, material: crate::MaterialId, y: f32) {
+        let mut mesh = crate::Mesh::new(name);
+        mesh.positions =
+            [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, z)| Vec3::new(x, 0.0, z)).to_vec();
+        mesh.normals = vec![Vec3::Y; 4];
+        mesh.uvs = Some([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(u, v)| Vec2::new(u, v)).to_vec());
+        mesh.triangles = vec![[0, 2, 1], [0, 3, 2]];
+        let id = scene.add_mesh(mesh);
+        scene.add_instance(Instance::new(name, id, material, Affine3A::from_translation(Vec3::Y * y)));
+    }
+
+    /// An RGBA PNG of `w` × `h` texels whose alpha is `alpha` (row by row, top first).
+    fn png_alpha(w: u32, h: u32, alpha: &[u8]) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        let mut encoder = png::Encoder::new(&mut bytes, w, h);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(png::BitDepth::Eight);
+        let rgba: Vec<u8> = alpha.iter().flat_map(|&a| [200, 180, 90, a]).collect();
+        encoder.write_header().unwrap().write_image_data(&rgba).unwrap();
+        bytes
+    }
+
+    #[test]
+    fn alpha_masked_casters_block_only_where_opaque() {
+        use crate::material::{AlphaMode, Material, TextureRef};
+        // A 2×2 checker: texels (0, 0) and (1, 1) opaque, the other two holes.
+        let checker = TextureRef::Embedded { mime_type: "image/png".into(), bytes: png_alpha(2, 2, &[255, 0, 0, 255]) };
+        let masked = |base_alpha: f32, texture: Option<TextureRef>| Material {
+            base_alpha,
+            alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+            base_color_texture: texture,
+            double_sided: true,
+            ..Material::default()
+        };
+        // Rays straight up from a grid of ground points (off the texel borders), through the card.
+        let blocked = |scene: &Scene| {
+            let bvh = SceneBvh::build(scene, Selection::All);
+            let mut out = Vec::new();
+            for i in 0..8 {
+                for k in 0..8 {
+                    let (x, z) = (-0.875 + 0.25 * i as f32, -0.875 + 0.25 * k as f32);
+                    let ray = PreparedRay::new(Vec3::new(x, 0.0, z), Vec3::Y, 0.0, 3.0);
+                    out.push(((x + 1.0) / 2.0, (z + 1.0) / 2.0, !bvh.unoccluded(&ray)));
+                }
+            }
+            (out, bvh.warnings)
+        };
+        let mut scene = Scene::new("mask");
+        let m = scene.add_material(masked(1.0, Some(checker.clone())));
+        card(&mut scene, "leaf", m, 1.0);
+        let (rays, warnings) = blocked(&scene);
+        assert!(warnings.is_empty(), "{warnings:?}");
+        for &(u, v, hit) in &rays {
+            assert_eq!(hit, (u < 0.5) == (v < 0.5), "u {u}, v {v}");
+        }
+        // An opaque card above the masked one: the traversal goes on past the holes and meets it.
+        let opaque = scene.add_material(Material { double_sided: true, ..Material::default() });
+        card(&mut scene, "roof", opaque, 2.0);
+        assert!(blocked(&scene).0.iter().all(|r| r.2), "a ray through a hole missed the card above");
+        // The factor's alpha below the cutoff: the whole card is a hole.
+        let mut scene = Scene::new("faint");
+        let m = scene.add_material(masked(0.4, Some(checker)));
+        card(&mut scene, "leaf", m, 1.0);
+        assert!(blocked(&scene).0.iter().all(|r| !r.2), "a card of alpha 0.4 < cutoff 0.5 blocked a ray");
+        // A texture that cannot be read: reported, and the factor's alpha alone decides (opaque).
+        let mut scene = Scene::new("broken");
+        let garbage = TextureRef::Embedded { mime_type: "image/png".into(), bytes: b"not a png".to_vec() };
+        let m = scene.add_material(masked(1.0, Some(garbage)));
+        card(&mut scene, "leaf", m, 1.0);
+        let (rays, warnings) = blocked(&scene);
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(rays.iter().all(|r| r.2));
+    }
 
     fn tri() -> [Vec3A; 3] {
         [Vec3A::new(0.0, 0.0, 0.0), Vec3A::new(1.0, 0.0, 0.0), Vec3A::new(0.0, 1.0, 0.0)]
@@ -503,7 +693,7 @@ mod tests {
             // `unoccluded` takes the copy compiled for AVX2 and friends where the CPU has them;
             // the baseline copy is checked on its own.
             assert_eq!(bvh.unoccluded(&ray), theirs, "ray {k} from {o} to {target}");
-            let baseline = by_axes!(ray.axes, bvh.occluder_in(&ray)).is_none();
+            let baseline = bvh.occluder_baseline(&ray).is_none();
             assert_eq!(baseline, theirs, "baseline copy, ray {k} from {o} to {target}");
             if theirs {
                 misses += 1

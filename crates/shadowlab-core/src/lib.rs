@@ -12,6 +12,7 @@
 //! assert!(scene.view("default").is_some());
 //! ```
 
+pub mod alpha;
 pub mod backprojection;
 pub mod bounds;
 pub mod bvh;
@@ -42,7 +43,7 @@ pub use error::{Location, SceneError};
 pub use glam;
 pub use light::{EmitterExtent, Light, LightKind};
 pub use load::{LoadOptions, Loaded, load_scene, load_scene_with};
-pub use material::{Material, TextureRef};
+pub use material::{AlphaMode, Material, TextureRef};
 pub use mesh::Mesh;
 pub use params::{ParamDef, ParamError, ParamKind, ParamSet, ParamValue};
 pub use scene::{Instance, LightId, MaterialId, MeshId, Mobility, Role, Scene, SceneStats};

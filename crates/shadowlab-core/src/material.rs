@@ -14,6 +14,18 @@ pub enum TextureRef {
     Embedded { mime_type: String, bytes: Vec<u8> },
 }
 
+/// How a material's coverage (its base colour's alpha) decides what it hides (glTF 2.0 §3.9.4
+/// `alphaMode`). Visibility here is binary per point, so translucency (`BLEND`) is taken as opaque.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum AlphaMode {
+    /// Every point of the surface blocks light.
+    #[default]
+    Opaque,
+    /// A point blocks light where its alpha (the base colour factor's times the base colour
+    /// texture's) is at least `cutoff`, and is a hole elsewhere: leaves, fences, grilles.
+    Mask { cutoff: f32 },
+}
+
 /// A surface's reflectance.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
@@ -31,6 +43,10 @@ pub struct Material {
     pub double_sided: bool,
     /// Emitted radiance (linear RGB), added unshadowed; for visible light fixtures.
     pub emissive: Vec3,
+    /// The base colour factor's alpha, in [0, 1] (multiplies the texture's).
+    pub base_alpha: f32,
+    /// Whether the alpha cuts holes ([`AlphaMode`]).
+    pub alpha_mode: AlphaMode,
 }
 
 impl Default for Material {
@@ -43,6 +59,8 @@ impl Default for Material {
             shininess: 32.0,
             double_sided: false,
             emissive: Vec3::ZERO,
+            base_alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
         }
     }
 }
@@ -79,6 +97,14 @@ impl Material {
         }
         if !(self.shininess.is_finite() && (1.0..=1.0e4).contains(&self.shininess)) {
             return Err(format!("shininess {} must be in [1, 10000]", self.shininess));
+        }
+        if !(self.base_alpha.is_finite() && (0.0..=1.0).contains(&self.base_alpha)) {
+            return Err(format!("base colour alpha {} must be in [0, 1]", self.base_alpha));
+        }
+        if let AlphaMode::Mask { cutoff } = self.alpha_mode
+            && !(cutoff.is_finite() && (0.0..=1.0).contains(&cutoff))
+        {
+            return Err(format!("alpha cutoff {cutoff} must be in [0, 1]"));
         }
         Ok(())
     }

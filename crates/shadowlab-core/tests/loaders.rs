@@ -264,3 +264,24 @@ fn the_cornell_panel_becomes_its_light() {
     check(&load_scene(toml.to_str().unwrap()).unwrap().scene);
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn gltf_alpha_mask_and_factor_alpha_are_read() {
+    let text = std::fs::read_to_string(data("card.gltf")).unwrap();
+    let masked = text.replacen(
+        "\"doubleSided\": true,",
+        "\"doubleSided\": true, \"alphaMode\": \"MASK\", \"alphaCutoff\": 0.3,",
+        1,
+    );
+    let masked = masked.replacen("0.1,\n     1\n    ]", "0.1,\n     0.7\n    ]", 1);
+    assert_ne!(masked, text, "the fixture's material was not found");
+    let l = gltf::parse(masked.as_bytes(), &data("card.gltf")).unwrap();
+    let card = l.scene.instances.iter().find(|i| i.name == "card").unwrap();
+    let m = l.scene.material(card.material);
+    assert_eq!(m.alpha_mode, shadowlab_core::AlphaMode::Mask { cutoff: 0.3 });
+    assert_eq!(m.base_alpha, 0.7);
+    // Without `alphaMode` a material is opaque, whatever its alpha (glTF's default).
+    let l = gltf::load(&data("card.gltf")).unwrap();
+    let card = l.scene.instances.iter().find(|i| i.name == "card").unwrap();
+    assert_eq!(l.scene.material(card.material).alpha_mode, shadowlab_core::AlphaMode::Opaque);
+}

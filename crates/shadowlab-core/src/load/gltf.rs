@@ -16,7 +16,7 @@ use super::Loaded;
 use crate::camera::View;
 use crate::error::{Location, Result, SceneError};
 use crate::light::{Light, LightKind};
-use crate::material::{Material, TextureRef};
+use crate::material::{AlphaMode, Material, TextureRef};
 use crate::mesh::Mesh;
 use crate::scene::{Instance, MaterialId, MeshId, Scene};
 
@@ -265,7 +265,7 @@ impl Builder<'_> {
             return Ok(id);
         }
         let pbr = mat.pbr_metallic_roughness();
-        let [r, g, b, _] = pbr.base_color_factor();
+        let [r, g, b, a] = pbr.base_color_factor();
         let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
         // Blinn-Phong from roughness: exponent 2/α² − 2 with α = roughness² (Walter et al. 2007's
         // correspondence), and a highlight that fades with roughness.
@@ -300,6 +300,12 @@ impl Builder<'_> {
             shininess: (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 1.0e4),
             double_sided: mat.double_sided(),
             emissive: Vec3::from(mat.emissive_factor()),
+            base_alpha: a,
+            // BLEND (translucency) is opaque here: visibility is binary per point (DESIGN.md §3).
+            alpha_mode: match mat.alpha_mode() {
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: mat.alpha_cutoff().unwrap_or(0.5) },
+                _ => AlphaMode::Opaque,
+            },
         };
         if let Err(e) = m.check() {
             let here = mat.index().map(|i| format!("materials[{i}]")).unwrap_or_else(|| "default material".into());

@@ -13,7 +13,7 @@ use super::Loaded;
 use crate::camera::View;
 use crate::error::{Location, Result, SceneError};
 use crate::light::{Light, LightKind};
-use crate::material::{Material, TextureRef};
+use crate::material::{AlphaMode, Material, TextureRef};
 use crate::primitives;
 use crate::scene::{Instance, MaterialId, Mobility, Role, Scene};
 
@@ -57,6 +57,10 @@ struct MaterialDef {
     shininess: Option<f32>,
     double_sided: Option<bool>,
     emissive: Option<[f32; 3]>,
+    /// The base colour's alpha (multiplies the texture's).
+    alpha: Option<f32>,
+    /// Makes the material alpha-masked: points whose alpha is below it are holes.
+    alpha_cutoff: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -205,6 +209,8 @@ impl Context<'_> {
                 shininess: d.shininess.unwrap_or(defaults.shininess),
                 double_sided: d.double_sided.unwrap_or(false),
                 emissive: d.emissive.map(Vec3::from).unwrap_or(Vec3::ZERO),
+                base_alpha: d.alpha.unwrap_or(defaults.base_alpha),
+                alpha_mode: d.alpha_cutoff.map_or(AlphaMode::Opaque, |cutoff| AlphaMode::Mask { cutoff }),
             };
             m.check().map_err(|e| SceneError::invalid(at.clone(), e))?;
             if materials.insert(d.name.clone(), scene.add_material(m)).is_some() {

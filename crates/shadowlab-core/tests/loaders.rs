@@ -285,3 +285,18 @@ fn gltf_alpha_mask_and_factor_alpha_are_read() {
     let card = l.scene.instances.iter().find(|i| i.name == "card").unwrap();
     assert_eq!(l.scene.material(card.material).alpha_mode, shadowlab_core::AlphaMode::Opaque);
 }
+
+/// A scene file's `alpha_cutoff` makes a material alpha-masked; a cutoff out of [0, 1] is an error
+/// naming the material.
+#[test]
+fn scene_file_alpha_keys() {
+    let toml = |cutoff: f32| {
+        format!("base = \"penumbra\"\n[[material]]\nname = \"leaf\"\nalpha = 0.6\nalpha_cutoff = {cutoff}\n")
+    };
+    let l = scene_file::parse(&toml(0.25), Path::new("leaf.toml")).unwrap();
+    let leaf = l.scene.materials.iter().find(|m| m.name == "leaf").unwrap();
+    assert_eq!(leaf.alpha_mode, shadowlab_core::AlphaMode::Mask { cutoff: 0.25 });
+    assert_eq!(leaf.base_alpha, 0.6);
+    let e = scene_file::parse(&toml(1.5), Path::new("leaf.toml")).unwrap_err().to_string();
+    assert!(e.contains("leaf") && e.contains("cutoff"), "{e}");
+}

@@ -10,12 +10,14 @@ use glam::{Mat3, Vec4};
 use shadowlab_core::{Aabb, Mobility, Scene, Topology};
 use wgpu::util::DeviceExt;
 
-/// Per-vertex data (`@location(0)` position, `@location(1)` normal).
+/// Per-vertex data (`@location(0)` position, `@location(1)` normal, `@location(11)` texture
+/// coordinates: zero where the mesh has none).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Vertex {
     pub position: [f32; 3],
     pub normal: [f32; 3],
+    pub uv: [f32; 2],
 }
 
 /// Per-instance data (`@location(2..=10)`): model matrix, normal matrix, material.
@@ -34,7 +36,7 @@ pub struct InstanceData {
 pub const VERTEX_LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
     array_stride: std::mem::size_of::<Vertex>() as u64,
     step_mode: wgpu::VertexStepMode::Vertex,
-    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 11 => Float32x2],
 };
 
 pub const INSTANCE_LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
@@ -69,6 +71,8 @@ pub struct DrawGroup {
     pub mirrored: bool,
     pub casts_shadows: bool,
     pub mobility: Mobility,
+    /// The alpha mask its material cuts holes with (index into [`GpuScene::masks`]), if any.
+    pub mask: Option<u32>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -96,13 +100,20 @@ pub struct GpuScene {
     pub bytes: u64,
     /// Instances the instance buffer has room for.
     capacity: usize,
+    /// The alpha masks of the scene's alpha-masked materials, `None` when it has none.
+    pub masks: Option<AlphaMasks>,
+    /// The mask of each material (index in `masks`), `None` for opaque ones.
+    material_masks: Vec<Option<u32>>,
+    /// Alpha-mask textures that could not be read (their materials keep the factor's alpha).
+    pub warnings: Vec<String>,
 }
 
-/// The draw-group key of an instance: casters first, then by mobility, mesh, culling and winding.
-type GroupKey = (bool, Mobility, usize, Sidedness, bool);
+/// The draw-group key of an instance: casters first, then by mobility, mesh, culling, winding and
+/// alpha mask.
+type GroupKey = (bool, Mobility, usize, Sidedness, bool, Option<u32>);
 
 impl GpuScene {
-    pub fn new(device: &wgpu::Device, scene: &Scene) -> Self {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) -> Self {
         let mut vertices: Vec<Vertex> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
         let mut meshes = Vec::with_capacity(scene.meshes.len());
@@ -113,12 +124,12 @@ impl GpuScene {
                 first_index: indices.len() as u32,
                 index_count: (m.triangles.len() * 3) as u32,
             });
-            vertices.extend(
-                m.positions
-                    .iter()
-                    .zip(&m.normals)
-                    .map(|(p, n)| Vertex { position: p.to_array(), normal: n.to_array() }),
-            );
+            let uv = |k: usize| m.uvs.as_ref().and_then(|uvs| uvs.get(k)).map_or([0.0; 2], |t| t.to_array());
+            vertices.extend(m.positions.iter().zip(&m.normals).enumerate().map(|(k, (p, n))| Vertex {
+                position: p.to_array(),
+                normal: n.to_array(),
+                uv: uv(k),
+            }));
             indices.extend(m.triangles.iter().flatten());
             closed.push(Topology::build(m).report().is_closed());
         }
@@ -142,7 +153,11 @@ impl GpuScene {
             triangles: 0,
             bytes: 0,
             capacity,
+            masks: None,
+            material_masks: Vec::new(),
+            warnings: Vec::new(),
         };
+        gpu_scene.upload_masks(device, queue, scene);
         let (data, groups, slots) = gpu_scene.layout(scene);
         gpu_scene.slots = slots;
         // Written at creation (mapped), so that the first frame needs no queue write.
@@ -186,7 +201,10 @@ impl GpuScene {
         self.bounds = all;
         self.caster_bounds = casters;
         self.triangles = scene.stats().triangles as u64;
-        self.bytes = self.vertices.size() + self.indices.size() + self.instances.size();
+        self.bytes = self.vertices.size()
+            + self.indices.size()
+            + self.instances.size()
+            + self.masks.as_ref().map_or(0, |m| m.bytes);
     }
 
     fn key(&self, scene: &Scene, i: usize) -> GroupKey {
@@ -199,7 +217,32 @@ impl GpuScene {
         } else {
             Sidedness::Open
         };
-        (!inst.casts_shadows, inst.mobility, inst.mesh.index(), sided, inst.transform.matrix3.determinant() < 0.0)
+        let mask = self.material_masks.get(inst.material.index()).copied().flatten();
+        (!inst.casts_shadows, inst.mobility, inst.mesh.index(), sided, inst.transform.matrix3.determinant() < 0.0, mask)
+    }
+
+    /// Decodes the alpha masks of the scene's alpha-masked materials (`shadowlab_core::alpha`, as
+    /// the truth reads them) into one texture array.
+    fn upload_masks(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) {
+        let mut coverages = Vec::new();
+        self.material_masks = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let coverage = match shadowlab_core::alpha::Coverage::of(m)? {
+                    Ok(c) => c,
+                    Err((c, warning)) => {
+                        self.warnings.push(warning);
+                        c
+                    }
+                };
+                coverages.push(coverage);
+                Some(coverages.len() as u32 - 1)
+            })
+            .collect();
+        if !coverages.is_empty() {
+            self.masks = Some(AlphaMasks::new(device, queue, &coverages));
+        }
     }
 
     /// Instance data in draw order, the groups over it, and each instance's slot.
@@ -226,14 +269,15 @@ impl GpuScene {
                 albedo_specular: mat.base_color.extend(mat.specular).into(),
                 material: Vec4::new(mat.shininess, mat.emissive.x, mat.emissive.y, mat.emissive.z).into(),
             });
-            let (not_caster, mobility, mesh, sidedness, mirrored) = self.key(scene, i);
+            let (not_caster, mobility, mesh, sidedness, mirrored, mask) = self.key(scene, i);
             match groups.last_mut() {
                 Some(g)
                     if g.mesh == mesh
                         && g.sidedness == sidedness
                         && g.mirrored == mirrored
                         && g.mobility == mobility
-                        && g.casts_shadows != not_caster =>
+                        && g.casts_shadows != not_caster
+                        && g.mask == mask =>
                 {
                     g.instances.end = slot as u32 + 1;
                 }
@@ -244,6 +288,7 @@ impl GpuScene {
                     mirrored,
                     casts_shadows: !not_caster,
                     mobility,
+                    mask,
                 }),
             }
         }
@@ -311,4 +356,125 @@ fn instance_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
 fn padded(mut data: Vec<InstanceData>, capacity: usize) -> Vec<InstanceData> {
     data.resize(capacity.max(1), InstanceData::zeroed());
     data
+}
+
+/// The scene's alpha masks on the GPU (`shaders/alpha_mask.wgsl`): every mask's alpha in one
+/// `R8Unorm` texture array (a layer each, padded to the largest), and per mask a uniform block
+/// (its size, cutoff and factor alpha) picked by dynamic offset, one bind group for all.
+pub struct AlphaMasks {
+    pub group: wgpu::BindGroup,
+    /// Bytes between two masks' uniform blocks (the dynamic offset of mask k is k × stride).
+    pub stride: u32,
+    pub bytes: u64,
+}
+
+/// `MaskUniform` in `shaders/alpha_mask.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct MaskUniform {
+    /// x, y: the mask's texels; z: its layer; w unused.
+    size: [u32; 4],
+    /// x: cutoff; y: the factor's alpha; z: 1 when the mask has a texture (else alpha 1).
+    test: [f32; 4],
+}
+
+impl AlphaMasks {
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue, coverages: &[shadowlab_core::alpha::Coverage]) -> Self {
+        let (w, h) = coverages
+            .iter()
+            .filter_map(|c| c.mask.as_ref())
+            .fold((1, 1), |(w, h), m| (w.max(m.width), h.max(m.height)));
+        let layers = crate::shadowmap::padded_layers(coverages.len() as u32, false).max(2);
+        // Layer k holds mask k's alpha in its top-left corner (the rest never read).
+        let mut texels = vec![0u8; (w as usize) * (h as usize) * layers as usize];
+        for (k, m) in coverages.iter().enumerate().filter_map(|(k, c)| c.mask.as_ref().map(|m| (k, m))) {
+            for (y, row) in m.alpha.chunks(m.width as usize).enumerate() {
+                let at = (k * h as usize + y) * w as usize;
+                texels[at..at + row.len()].copy_from_slice(row);
+            }
+        }
+        let texture = device.create_texture_with_data(
+            queue,
+            &wgpu::TextureDescriptor {
+                label: Some("alpha masks"),
+                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: layers },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::R8Unorm,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            &texels,
+        );
+        let stride = device.limits().min_uniform_buffer_offset_alignment.max(std::mem::size_of::<MaskUniform>() as u32);
+        let mut uniforms = vec![0u8; (stride as usize) * coverages.len()];
+        for (k, c) in coverages.iter().enumerate() {
+            let (mw, mh) = c.mask.as_ref().map_or((1, 1), |m| (m.width, m.height));
+            let u = MaskUniform {
+                size: [mw, mh, k as u32, 0],
+                test: [c.cutoff, c.base_alpha, if c.mask.is_some() { 1.0 } else { 0.0 }, 0.0],
+            };
+            let at = k * stride as usize;
+            uniforms[at..at + std::mem::size_of::<MaskUniform>()].copy_from_slice(bytemuck::bytes_of(&u));
+        }
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("alpha mask uniforms"),
+            contents: &uniforms,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let layout = mask_layout(device);
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("alpha masks"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &buffer,
+                        offset: 0,
+                        size: std::num::NonZeroU64::new(std::mem::size_of::<MaskUniform>() as u64),
+                    }),
+                },
+            ],
+        });
+        let bytes = u64::from(w) * u64::from(h) * u64::from(layers) + uniforms.len() as u64;
+        Self { group, stride, bytes }
+    }
+}
+
+/// The bind group layout of [`AlphaMasks`] (`shaders/alpha_mask.wgsl`). Made per device: layouts
+/// compare by content, so the pipelines' own copy (`mask_layout` through `Shared`) matches it.
+pub fn mask_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("alpha masks"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: std::num::NonZeroU64::new(std::mem::size_of::<MaskUniform>() as u64),
+                },
+                count: None,
+            },
+        ],
+    })
 }

@@ -9,6 +9,7 @@
 const SHARED: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("shaders/common.wgsl")),
     ("instance.wgsl", include_str!("shaders/instance.wgsl")),
+    ("alpha_mask.wgsl", include_str!("shaders/alpha_mask.wgsl")),
     ("lights.wgsl", include_str!("shaders/lights.wgsl")),
     ("shadowmap.wgsl", include_str!("shaders/shadowmap.wgsl")),
     ("resolve.wgsl", include_str!("shaders/resolve.wgsl")),

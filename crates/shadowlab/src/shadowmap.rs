@@ -344,13 +344,17 @@ impl ShadowMapArray {
         let group = if raster.linear_depth { &self.linear_group } else { &self.matrices_group };
         pass.set_bind_group(0, Some(group), &[(u64::from(slot) * self.stride) as u32]);
         let mut draws = 0;
-        let mut current: Option<(wgpu::Face, bool, bool)> = None;
+        let mut current: Option<(wgpu::Face, bool, bool, bool)> = None;
         for g in ctx.gpu_scene.casters(classes) {
             let cull = cull_mode(g, raster.faces);
-            let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored);
+            let mask = g.mask.zip(ctx.gpu_scene.masks.as_ref());
+            let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored, mask.is_some());
             if current != Some(key) {
-                pass.set_pipeline(&depth_pipeline(ctx.shared, cull, g.mirrored, raster));
+                pass.set_pipeline(&depth_pipeline(ctx.shared, cull, g.mirrored, mask.is_some(), raster));
                 current = Some(key);
+            }
+            if let Some((k, masks)) = mask {
+                pass.set_bind_group(1, Some(&masks.group), &[k * masks.stride]);
             }
             ctx.gpu_scene.draw(&mut pass, std::iter::once(g));
             draws += 1;
@@ -436,9 +440,21 @@ pub(crate) fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     })
 }
 
-fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, raster: &Raster) -> wgpu::RenderPipeline {
+/// The depth pass's pipeline for casters culled by `cull`, wound `mirrored`, rasterised by
+/// `raster`; `masked`: alpha-masked casters, whose fragment stage drops the mask's holes
+/// (`shaders/alpha_mask.wgsl`, group 1).
+fn depth_pipeline(
+    shared: &Shared,
+    cull: Option<wgpu::Face>,
+    mirrored: bool,
+    masked: bool,
+    raster: &Raster,
+) -> wgpu::RenderPipeline {
     let (slope_bias, linear) = (raster.slope_bias, raster.linear_depth);
-    let key = format!("shadow depth {cull:?} mirrored={mirrored} slope={} linear={linear}", slope_bias.to_bits());
+    let key = format!(
+        "shadow depth {cull:?} mirrored={mirrored} masked={masked} slope={} linear={linear}",
+        slope_bias.to_bits()
+    );
     shared.render_pipeline(&key, || {
         let device = &shared.gpu.device;
         let (module, layout) = if linear {
@@ -453,9 +469,12 @@ fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, ras
         // The linear shader applies the slope bias to the depth it writes (a written depth takes
         // no raster bias).
         let constants = [("slope_bias", f64::from(slope_bias))];
+        let masks = crate::gpu_scene::mask_layout(device);
+        let groups: &[Option<&wgpu::BindGroupLayout>] =
+            if masked { &[Some(&layout), Some(&masks)] } else { &[Some(&layout)] };
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("shadow depth"),
-            bind_group_layouts: &[Some(&layout)],
+            bind_group_layouts: groups,
             immediate_size: 0,
         });
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -463,7 +482,7 @@ fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, ras
             layout: Some(&pipeline_layout),
             vertex: wgpu::VertexState {
                 module: &module,
-                entry_point: Some("vs_main"),
+                entry_point: Some(if masked { "vs_masked" } else { "vs_main" }),
                 compilation_options: Default::default(),
                 buffers: &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)],
             },
@@ -485,10 +504,13 @@ fn depth_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool, ras
                 },
             }),
             multisample: Default::default(),
-            fragment: linear.then(|| wgpu::FragmentState {
+            fragment: (linear || masked).then(|| wgpu::FragmentState {
                 module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                entry_point: Some(if masked { "fs_masked" } else { "fs_main" }),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: if linear { &constants } else { &[] },
+                    ..Default::default()
+                },
                 targets: &[],
             }),
             multiview_mask: None,

@@ -159,7 +159,7 @@ impl Shadows {
     /// Uploads the scene. No light is shadowed until [`Shadows::set_technique`].
     pub fn new(gpu: &Gpu, scene: Scene) -> Self {
         let shared = Shared::new(gpu);
-        let gpu_scene = GpuScene::new(&gpu.device, &scene);
+        let gpu_scene = GpuScene::new(&gpu.device, &gpu.queue, &scene);
         Self {
             shared,
             live: LiveScene::new(scene),

@@ -85,6 +85,9 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
 
     // 2. The reference and its noise floor.
     let bvh = SceneBvh::build(&setup.scene, Selection::Casters);
+    for warning in &bvh.warnings {
+        eprintln!("warning: {warning}");
+    }
     let lights: Vec<(u32, &shadowlab_core::Light)> =
         setup.lights.iter().map(|id| (id.0, &setup.scene.lights[id.index()])).collect();
     let settings = ReferenceSettings { samples: args.samples, seed: args.seed };

@@ -7,8 +7,27 @@ struct ViewProjection {
 @group(0) @binding(0) var<uniform> light_view: ViewProjection;
 
 // #include "instance.wgsl"
+// #include "alpha_mask.wgsl"
 
 @vertex
 fn vs_main(v: InstancedVertex) -> @builtin(position) vec4<f32> {
     return light_view.matrix * instance_world(v);
+}
+
+// Alpha-masked casters: the texture coordinates carried to a fragment stage that drops the holes.
+struct MaskedOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+};
+
+@vertex
+fn vs_masked(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedOut {
+    return MaskedOut(light_view.matrix * instance_world(v), uv);
+}
+
+@fragment
+fn fs_masked(in: MaskedOut) {
+    if (!mask_blocks(in.uv)) {
+        discard;
+    }
 }

@@ -15,6 +15,7 @@ struct RenderView {
 override slope_bias: f32 = 0.0;
 
 // #include "instance.wgsl"
+// #include "alpha_mask.wgsl"
 
 struct Out {
     @builtin(position) clip: vec4<f32>,
@@ -30,6 +31,29 @@ fn vs_main(v: InstancedVertex) -> Out {
 @fragment
 fn fs_main(in: Out) -> @builtin(frag_depth) f32 {
     // Reversed Z: the bias pushes the stored depth away from the light (smaller).
+    let slope = max(abs(dpdx(in.depth)), abs(dpdy(in.depth)));
+    return clamp(in.depth - slope_bias * slope, 0.0, 1.0);
+}
+
+// Alpha-masked casters: as above, with the texture coordinates and a fragment stage that drops the
+// holes.
+struct MaskedOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) depth: f32,
+    @location(1) uv: vec2<f32>,
+};
+
+@vertex
+fn vs_masked(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedOut {
+    let p = instance_world(v);
+    return MaskedOut(light_view.matrix * p, dot(light_view.depth, p), uv);
+}
+
+@fragment
+fn fs_masked(in: MaskedOut) -> @builtin(frag_depth) f32 {
+    if (!mask_blocks(in.uv)) {
+        discard;
+    }
     let slope = max(abs(dpdx(in.depth)), abs(dpdy(in.depth)));
     return clamp(in.depth - slope_bias * slope, 0.0, 1.0);
 }

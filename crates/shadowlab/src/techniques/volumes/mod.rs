@@ -28,6 +28,10 @@
 //! camera), and the robust depth pass with the invert stencil (`stencil=invert` with z-pass: depth
 //! clamping instead of near clipping, the stencil started at the eye's parity; exact where volumes
 //! do not overlap).
+//!
+//! Alpha-masked casters (leaves, fences: `AlphaMode::Mask`) are extruded whole, as opaque: a
+//! volume is built from geometry, and a texture's holes have none (the map techniques' depth passes
+//! drop them, `shaders/alpha_mask.wgsl`). A scene of such casters wants a map technique.
 
 mod geometry;
 mod plan;

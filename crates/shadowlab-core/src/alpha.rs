@@ -10,7 +10,8 @@
 
 use glam::Vec2;
 
-use crate::material::{AlphaMode, Material, TextureRef};
+use crate::material::{AlphaMode, Material};
+use crate::texture::Rgba8;
 
 /// A texture's alpha channel, top row first.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,33 +22,9 @@ pub struct AlphaMask {
 }
 
 impl AlphaMask {
-    /// The alpha of a PNG (8 or 16 bits, any colour type: no alpha channel gives 1 everywhere;
-    /// a `tRNS` chunk is expanded to one).
-    pub fn from_png(bytes: &[u8]) -> Result<Self, String> {
-        let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-        decoder.set_transformations(png::Transformations::normalize_to_color8());
-        let mut reader = decoder.read_info().map_err(|e| format!("not a readable PNG: {e}"))?;
-        let size = reader.output_buffer_size().ok_or("the PNG is too large")?;
-        let mut buf = vec![0u8; size];
-        let info = reader.next_frame(&mut buf).map_err(|e| format!("not a readable PNG: {e}"))?;
-        let (channels, alpha_at) = match info.color_type {
-            png::ColorType::GrayscaleAlpha => (2, Some(1)),
-            png::ColorType::Rgba => (4, Some(3)),
-            png::ColorType::Grayscale => (1, None),
-            png::ColorType::Rgb => (3, None),
-            png::ColorType::Indexed => return Err("an indexed PNG was not expanded".into()),
-        };
-        let (width, height) = (info.width, info.height);
-        let mut alpha = Vec::with_capacity(width as usize * height as usize);
-        for row in buf.chunks(info.line_size).take(height as usize) {
-            for px in row.chunks(channels).take(width as usize) {
-                alpha.push(alpha_at.map_or(255, |a| px[a]));
-            }
-        }
-        if width == 0 || height == 0 || alpha.len() != width as usize * height as usize {
-            return Err(format!("a {width}×{height} PNG has no pixels to read"));
-        }
-        Ok(Self { width, height, alpha })
+    /// The alpha channel of an image.
+    pub fn of(image: &Rgba8) -> Self {
+        Self { width: image.width, height: image.height, alpha: image.texels.iter().map(|t| t[3]).collect() }
     }
 
     /// The alpha, in [0, 1], of the texel nearest to `uv` (wrapped).
@@ -77,23 +54,9 @@ impl Coverage {
         let AlphaMode::Mask { cutoff } = material.alpha_mode else { return None };
         let mut coverage = Self { base_alpha: material.base_alpha, cutoff, mask: None };
         let Some(texture) = &material.base_color_texture else { return Some(Ok(coverage)) };
-        let read = match texture {
-            TextureRef::Embedded { mime_type, bytes } if mime_type.contains("jpeg") => return Some(Ok(coverage)),
-            TextureRef::Embedded { bytes, .. } => AlphaMask::from_png(bytes),
-            TextureRef::File(path) => {
-                let jpeg =
-                    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
-                if jpeg {
-                    return Some(Ok(coverage));
-                }
-                std::fs::read(path)
-                    .map_err(|e| format!("{}: {e}", path.display()))
-                    .and_then(|bytes| AlphaMask::from_png(&bytes).map_err(|e| format!("{}: {e}", path.display())))
-            }
-        };
-        Some(match read {
-            Ok(mask) => {
-                coverage.mask = Some(mask);
+        Some(match Rgba8::read(texture) {
+            Ok(image) => {
+                coverage.mask = image.as_ref().map(AlphaMask::of);
                 Ok(coverage)
             }
             Err(e) => Err((coverage, format!("material '{}': alpha mask texture ignored: {e}", material.name))),

@@ -34,6 +34,7 @@ pub mod scene;
 pub mod scenes;
 pub mod smoothies;
 pub mod surface;
+pub mod texture;
 pub mod topology;
 pub mod volumes;
 

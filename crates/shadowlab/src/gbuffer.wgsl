@@ -4,6 +4,9 @@
 // #include "common.wgsl"
 
 @group(0) @binding(0) var<uniform> camera: Camera;
+// The material's base colour texture (sRGB, so sampled linear), white where it has none.
+@group(1) @binding(0) var base_colour: texture_2d<f32>;
+@group(1) @binding(1) var base_colour_sampler: sampler;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -17,6 +20,7 @@ struct VertexIn {
     @location(8) normal2: vec4<f32>,
     @location(9) albedo_specular: vec4<f32>,
     @location(10) material: vec4<f32>,
+    @location(11) uv: vec2<f32>,
 };
 
 struct VertexOut {
@@ -26,6 +30,7 @@ struct VertexOut {
     @location(2) material: vec4<f32>,
     // Position relative to the eye: small, so its screen derivatives keep their precision.
     @location(3) eye_relative: vec3<f32>,
+    @location(4) uv: vec2<f32>,
 };
 
 @vertex
@@ -39,6 +44,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.normal = normal_matrix * v.normal;
     out.albedo_specular = v.albedo_specular;
     out.material = v.material;
+    out.uv = v.uv;
     return out;
 }
 
@@ -65,7 +71,8 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> GBufferOut {
     }
     var out: GBufferOut;
     out.normal = vec4<f32>(n, in.material.x);
-    out.albedo = in.albedo_specular;
+    let texel = textureSample(base_colour, base_colour_sampler, in.uv);
+    out.albedo = vec4<f32>(in.albedo_specular.rgb * texel.rgb, in.albedo_specular.a);
     out.emissive = vec4<f32>(in.material.yzw, 1.0);
     out.geometric_normal = vec4<f32>(ng, 0.0);
     return out;

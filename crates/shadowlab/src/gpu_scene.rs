@@ -73,6 +73,8 @@ pub struct DrawGroup {
     pub mobility: Mobility,
     /// The alpha mask its material cuts holes with (index into [`GpuScene::masks`]), if any.
     pub mask: Option<u32>,
+    /// Its material's base colour texture (index into [`GpuScene::base_colours`]; 0: none, white).
+    pub texture: u32,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -104,13 +106,19 @@ pub struct GpuScene {
     pub masks: Option<AlphaMasks>,
     /// The mask of each material (index in `masks`), `None` for opaque ones.
     material_masks: Vec<Option<u32>>,
-    /// Alpha-mask textures that could not be read (their materials keep the factor's alpha).
+    /// Alpha-mask textures that could not be read (their materials keep the factor's alpha), and
+    /// base colour textures that could not (white instead).
     pub warnings: Vec<String>,
+    /// The G-buffer's base colour textures, one bind group each (`gbuffer.wgsl` group 1); the first
+    /// is a white texel, for materials without one.
+    pub base_colours: Vec<wgpu::BindGroup>,
+    /// The base colour texture of each material (index into `base_colours`).
+    material_textures: Vec<u32>,
 }
 
 /// The draw-group key of an instance: casters first, then by mobility, mesh, culling, winding and
 /// alpha mask.
-type GroupKey = (bool, Mobility, usize, Sidedness, bool, Option<u32>);
+type GroupKey = (bool, Mobility, usize, Sidedness, bool, Option<u32>, u32);
 
 impl GpuScene {
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) -> Self {
@@ -156,8 +164,11 @@ impl GpuScene {
             masks: None,
             material_masks: Vec::new(),
             warnings: Vec::new(),
+            base_colours: Vec::new(),
+            material_textures: Vec::new(),
         };
         gpu_scene.upload_masks(device, queue, scene);
+        gpu_scene.upload_base_colours(device, queue, scene);
         let (data, groups, slots) = gpu_scene.layout(scene);
         gpu_scene.slots = slots;
         // Written at creation (mapped), so that the first frame needs no queue write.
@@ -218,7 +229,42 @@ impl GpuScene {
             Sidedness::Open
         };
         let mask = self.material_masks.get(inst.material.index()).copied().flatten();
-        (!inst.casts_shadows, inst.mobility, inst.mesh.index(), sided, inst.transform.matrix3.determinant() < 0.0, mask)
+        let texture = self.material_textures.get(inst.material.index()).copied().unwrap_or(0);
+        let mirrored = inst.transform.matrix3.determinant() < 0.0;
+        (!inst.casts_shadows, inst.mobility, inst.mesh.index(), sided, mirrored, mask, texture)
+    }
+
+    /// Decodes and uploads the materials' base colour textures (sRGB), one per distinct reference.
+    fn upload_base_colours(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) {
+        let white = shadowlab_core::texture::Rgba8 { width: 1, height: 1, texels: vec![[255; 4]] };
+        self.base_colours = vec![base_colour_group(device, queue, &white)];
+        let mut seen: Vec<(&shadowlab_core::TextureRef, u32)> = Vec::new();
+        self.material_textures = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let Some(texture) = &m.base_color_texture else { return 0 };
+                if let Some(&(_, k)) = seen.iter().find(|(t, _)| *t == texture) {
+                    return k;
+                }
+                let k = match shadowlab_core::texture::Rgba8::read(texture) {
+                    Ok(Some(image)) => {
+                        self.base_colours.push(base_colour_group(device, queue, &image));
+                        self.base_colours.len() as u32 - 1
+                    }
+                    Ok(None) => {
+                        self.warnings.push(format!("material '{}': a JPEG base colour texture is not read", m.name));
+                        0
+                    }
+                    Err(e) => {
+                        self.warnings.push(format!("material '{}': base colour texture ignored: {e}", m.name));
+                        0
+                    }
+                };
+                seen.push((texture, k));
+                k
+            })
+            .collect();
     }
 
     /// Decodes the alpha masks of the scene's alpha-masked materials (`shadowlab_core::alpha`, as
@@ -269,7 +315,7 @@ impl GpuScene {
                 albedo_specular: mat.base_color.extend(mat.specular).into(),
                 material: Vec4::new(mat.shininess, mat.emissive.x, mat.emissive.y, mat.emissive.z).into(),
             });
-            let (not_caster, mobility, mesh, sidedness, mirrored, mask) = self.key(scene, i);
+            let (not_caster, mobility, mesh, sidedness, mirrored, mask, texture) = self.key(scene, i);
             match groups.last_mut() {
                 Some(g)
                     if g.mesh == mesh
@@ -277,7 +323,8 @@ impl GpuScene {
                         && g.mirrored == mirrored
                         && g.mobility == mobility
                         && g.casts_shadows != not_caster
-                        && g.mask == mask =>
+                        && g.mask == mask
+                        && g.texture == texture =>
                 {
                     g.instances.end = slot as u32 + 1;
                 }
@@ -289,6 +336,7 @@ impl GpuScene {
                     casts_shadows: !not_caster,
                     mobility,
                     mask,
+                    texture,
                 }),
             }
         }
@@ -473,6 +521,74 @@ pub fn mask_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                     has_dynamic_offset: true,
                     min_binding_size: std::num::NonZeroU64::new(std::mem::size_of::<MaskUniform>() as u64),
                 },
+                count: None,
+            },
+        ],
+    })
+}
+
+/// A base colour texture's bind group (`gbuffer.wgsl` group 1: the texture, sRGB, and a repeating
+/// linear sampler).
+fn base_colour_group(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    image: &shadowlab_core::texture::Rgba8,
+) -> wgpu::BindGroup {
+    let texture = device.create_texture_with_data(
+        queue,
+        &wgpu::TextureDescriptor {
+            label: Some("base colour"),
+            size: wgpu::Extent3d { width: image.width, height: image.height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(&image.texels),
+    );
+    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("base colour"),
+        address_mode_u: wgpu::AddressMode::Repeat,
+        address_mode_v: wgpu::AddressMode::Repeat,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    });
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("base colour"),
+        layout: &base_colour_layout(device),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&texture.create_view(&Default::default())),
+            },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
+        ],
+    })
+}
+
+/// The layout of [`GpuScene::base_colours`]' groups (`gbuffer.wgsl` group 1).
+pub fn base_colour_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("base colour"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                 count: None,
             },
         ],

@@ -307,6 +307,9 @@ impl Renderer {
             // Single-sided surfaces are seen from the front only; double-sided from both sides.
             let cull = if g.sidedness == Sidedness::DoubleSided { None } else { Some(wgpu::Face::Back) };
             pass.set_pipeline(&gbuffer_pipeline(shared, cull, g.mirrored));
+            if let Some(texture) = gpu_scene.base_colours.get(g.texture as usize) {
+                pass.set_bind_group(1, Some(texture), &[]);
+            }
             gpu_scene.draw(&mut pass, std::iter::once(g));
         }
     }
@@ -690,7 +693,10 @@ fn gbuffer_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool) -
         let device = &shared.gpu.device;
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("gbuffer"),
-            bind_group_layouts: &[Some(&gbuffer_camera_layout(shared))],
+            bind_group_layouts: &[
+                Some(&gbuffer_camera_layout(shared)),
+                Some(&crate::gpu_scene::base_colour_layout(device)),
+            ],
             immediate_size: 0,
         });
         let module = crate::shader::module(device, "gbuffer", include_str!("gbuffer.wgsl"));

@@ -80,14 +80,15 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     // 1. The surface, from a renderer that shadows nothing (its G-buffer is every technique's).
     let none = TechniqueSpec::parse("none", &[])?;
     let mut base = renderer(&gpu, &setup, &none)?;
+    for warning in &base.shadows.gpu_scene().warnings {
+        eprintln!("warning: {warning}");
+    }
     base.render()?;
     let surface = base.read_surface()?;
 
     // 2. The reference and its noise floor.
+    // (Its warnings, about alpha masks, are the GPU scene's above: the same textures.)
     let bvh = SceneBvh::build(&setup.scene, Selection::Casters);
-    for warning in &bvh.warnings {
-        eprintln!("warning: {warning}");
-    }
     let lights: Vec<(u32, &shadowlab_core::Light)> =
         setup.lights.iter().map(|id| (id.0, &setup.scene.lights[id.index()])).collect();
     let settings = ReferenceSettings { samples: args.samples, seed: args.seed };

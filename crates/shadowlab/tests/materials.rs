@@ -1,5 +1,6 @@
-//! Alpha-masked casters (issue 17 item 9): a card whose texture is a checker of holes casts a
-//! checker shadow, in the truth and in the map techniques' depth passes alike.
+//! glTF materials (issue 17 item 9): alpha-masked casters (a card whose texture is a checker of
+//! holes casts a checker shadow, in the truth and in the map techniques' depth passes alike) and
+//! base colour textures (sampled by the G-buffer).
 
 mod common;
 
@@ -16,10 +17,15 @@ const SIZE: u32 = 128;
 
 /// An RGBA PNG of `n` × `n` texels whose alpha is a checker (texel (0, 0) opaque).
 fn checker_png(n: u32) -> Vec<u8> {
+    png_of(n, |x, y| [90, 140, 60, if (x + y) % 2 == 0 { 255 } else { 0 }])
+}
+
+/// An RGBA PNG of `n` × `n` texels, texel (x, y) `texel(x, y)`.
+fn png_of(n: u32, texel: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
     let mut rgba = Vec::new();
     for y in 0..n {
         for x in 0..n {
-            rgba.extend([90, 140, 60, if (x + y) % 2 == 0 { 255 } else { 0 }]);
+            rgba.extend(texel(x, y));
         }
     }
     let image = image::RgbaImage::from_raw(n, n, rgba).expect("n × n texels");
@@ -120,4 +126,31 @@ fn alpha_masked_casters_cut_holes_in_every_map() {
     println!("opaque card against the masked truth: {bad} of {n} wrong");
     // Measured 673 pixels; bound about half.
     assert!(bad > 300, "an opaque card's shadow differs from the checker's by only {bad} pixels");
+}
+
+#[test]
+fn base_colour_textures_colour_the_surface() {
+    let gpu = gpu();
+    // The card lit from above, its texture a red and green checker, its base colour white: the
+    // image shows both colours where the card is (without the texture: grey only).
+    let mut s = scene(AlphaMode::Opaque);
+    let red_green = png_of(2, |x, y| if (x + y) % 2 == 0 { [230, 20, 20, 255] } else { [20, 230, 20, 255] });
+    let card = s.instances.iter().find(|i| i.name == "card").unwrap().material;
+    s.materials[card.index()].base_color = Vec3::ONE;
+    s.materials[card.index()].base_color_texture =
+        Some(TextureRef::Embedded { mime_type: "image/png".into(), bytes: red_green });
+    let view = s.views[0].clone();
+    let colours = |scene: &Scene| {
+        let image = render(&gpu, scene, &view, SIZE, "none", &[]).renderer.read_image().unwrap();
+        let count = |f: &dyn Fn(i32, i32, i32) -> bool| {
+            image.chunks_exact(3).filter(|p| f(i32::from(p[0]), i32::from(p[1]), i32::from(p[2]))).count()
+        };
+        (count(&|r, g, b| r > g + 60 && r > b + 60), count(&|r, g, b| g > r + 60 && g > b + 60))
+    };
+    let (red, green) = colours(&s);
+    println!("{red} red and {green} green pixels");
+    // Measured 285 red and 267 green pixels (the card's four cells); bound about half.
+    assert!(red > 140 && green > 130, "{red} red, {green} green pixels");
+    s.materials[card.index()].base_color_texture = None;
+    assert_eq!(colours(&s), (0, 0), "without its texture the card is white");
 }

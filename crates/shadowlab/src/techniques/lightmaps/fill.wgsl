@@ -6,6 +6,7 @@
 
 // #include "common.wgsl"
 // #include "instance.wgsl"
+// #include "alpha_mask.wgsl"
 
 struct Fill {
     // Clip = projection × world: the sample's frustum onto the patch rectangle.
@@ -35,6 +36,25 @@ fn occluder_vs(v: InstancedVertex) -> @builtin(position) vec4<f32> {
 
 @fragment
 fn occluder_fs() -> @location(0) vec4<f32> {
+    return vec4<f32>(0.0);
+}
+
+// Alpha-masked casters: their holes leave the stencil unmarked (`alpha_mask.wgsl`, group 1).
+struct MaskedOccluder {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+};
+
+@vertex
+fn occluder_masked_vs(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedOccluder {
+    return MaskedOccluder(fill.projection * instance_world(v), uv);
+}
+
+@fragment
+fn occluder_masked_fs(in: MaskedOccluder) -> @location(0) vec4<f32> {
+    if (!mask_blocks(in.uv)) {
+        discard;
+    }
     return vec4<f32>(0.0);
 }
 

@@ -238,9 +238,13 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
     shared.render_pipeline(&format!("lightmaps {which}"), || {
         let device = &shared.gpu.device;
         let module = crate::shader::module(device, "lightmaps fill", include_str!("fill.wgsl"));
+        let masks = crate::gpu_scene::mask_layout(device);
+        let fill = fill_layout(shared);
+        let groups: &[Option<&wgpu::BindGroupLayout>] =
+            if which == "occluder_masked" { &[Some(&fill), Some(&masks)] } else { &[Some(&fill)] };
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("lightmaps fill"),
-            bind_group_layouts: &[Some(&fill_layout(shared))],
+            bind_group_layouts: groups,
             immediate_size: 0,
         });
         let face = |compare, pass_op| wgpu::StencilFaceState {
@@ -250,7 +254,7 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
             pass_op,
         };
         let stencil_face = match which {
-            "occluder" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Replace),
+            "occluder" | "occluder_masked" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Replace),
             "smoothie" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Keep),
             _ => face(wgpu::CompareFunction::Equal, wgpu::StencilOperation::Keep),
         };
@@ -260,7 +264,7 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
             operation,
         };
         let blend = match which {
-            "occluder" => None,
+            "occluder" | "occluder_masked" => None,
             "smoothie" | "umbra" => Some(wgpu::BlendState {
                 color: component(wgpu::BlendOperation::Min),
                 alpha: component(wgpu::BlendOperation::Min),
@@ -277,6 +281,7 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
         };
         let (vertex_entry, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) = match which {
             "occluder" => ("occluder_vs", &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)]),
+            "occluder_masked" => ("occluder_masked_vs", &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)]),
             "smoothie" => ("smoothie_vs", &[Some(SMOOTHIE_LAYOUT)]),
             _ => ("screen_vs", &[]),
         };
@@ -302,6 +307,7 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
                 module: &module,
                 entry_point: Some(match which {
                     "occluder" => "occluder_fs",
+                    "occluder_masked" => "occluder_masked_fs",
                     "lit" => "lit_fs",
                     "smoothie" => "smoothie_fs",
                     "umbra" => "umbra_fs",
@@ -311,7 +317,11 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
                 targets: &[Some(wgpu::ColorTargetState {
                     format: MAP_FORMAT,
                     blend,
-                    write_mask: if which == "occluder" { wgpu::ColorWrites::empty() } else { wgpu::ColorWrites::ALL },
+                    write_mask: if which.starts_with("occluder") {
+                        wgpu::ColorWrites::empty()
+                    } else {
+                        wgpu::ColorWrites::ALL
+                    },
                 })],
             }),
             multiview_mask: None,
@@ -976,10 +986,20 @@ fn fill_patch(
         pass.set_scissor_rect(0, 0, tw, th);
         pass.set_bind_group(0, Some(&state.fill_group), &[slot as u32]);
         if projection.is_some() {
-            pass.set_pipeline(&occluder);
             pass.set_stencil_reference(1);
             ctx.gpu_scene.bind(&mut pass);
-            draws += ctx.gpu_scene.draw_except(&mut pass, ctx.gpu_scene.casters(PERMANENT), skip_slot);
+            // Opaque casters in one go; alpha-masked ones group by group, each with its mask.
+            pass.set_pipeline(&occluder);
+            let opaque = ctx.gpu_scene.casters(PERMANENT).filter(|g| g.mask.is_none());
+            draws += ctx.gpu_scene.draw_except(&mut pass, opaque, skip_slot);
+            if let Some(masks) = &ctx.gpu_scene.masks {
+                pass.set_pipeline(&fill_pipeline(shared, "occluder_masked"));
+                for g in ctx.gpu_scene.casters(PERMANENT) {
+                    let Some(k) = g.mask else { continue };
+                    pass.set_bind_group(1, Some(&masks.group), &[k * masks.stride]);
+                    draws += ctx.gpu_scene.draw_except(&mut pass, std::iter::once(g), skip_slot);
+                }
+            }
         }
         if let Some(set) = smoothies {
             // The smoothies (outside the receiver), then the umbra, each keeping the least value.

@@ -28,3 +28,16 @@ fn mask_blocks(uv: vec2<f32>) -> bool {
     }
     return alpha >= alpha_mask.test.x;
 }
+
+// What a masked caster's vertex stage hands a fragment stage that needs no more than the holes.
+struct MaskedPosition {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+};
+
+// Drops the fragment where the mask is a hole (fragment stages only).
+fn drop_holes(uv: vec2<f32>) {
+    if (!mask_blocks(uv)) {
+        discard;
+    }
+}

@@ -15,19 +15,12 @@ fn vs_main(v: InstancedVertex) -> @builtin(position) vec4<f32> {
 }
 
 // Alpha-masked casters: the texture coordinates carried to a fragment stage that drops the holes.
-struct MaskedOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) uv: vec2<f32>,
-};
-
 @vertex
-fn vs_masked(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedOut {
-    return MaskedOut(light_view.matrix * instance_world(v), uv);
+fn vs_masked(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedPosition {
+    return MaskedPosition(light_view.matrix * instance_world(v), uv);
 }
 
 @fragment
-fn fs_masked(in: MaskedOut) {
-    if (!mask_blocks(in.uv)) {
-        discard;
-    }
+fn fs_masked(in: MaskedPosition) {
+    drop_holes(in.uv);
 }

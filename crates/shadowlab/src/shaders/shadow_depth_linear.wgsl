@@ -51,9 +51,7 @@ fn vs_masked(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedOut {
 
 @fragment
 fn fs_masked(in: MaskedOut) -> @builtin(frag_depth) f32 {
-    if (!mask_blocks(in.uv)) {
-        discard;
-    }
+    drop_holes(in.uv);
     let slope = max(abs(dpdx(in.depth)), abs(dpdy(in.depth)));
     return clamp(in.depth - slope_bias * slope, 0.0, 1.0);
 }

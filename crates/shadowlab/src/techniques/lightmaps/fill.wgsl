@@ -40,21 +40,14 @@ fn occluder_fs() -> @location(0) vec4<f32> {
 }
 
 // Alpha-masked casters: their holes leave the stencil unmarked (`alpha_mask.wgsl`, group 1).
-struct MaskedOccluder {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) uv: vec2<f32>,
-};
-
 @vertex
-fn occluder_masked_vs(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedOccluder {
-    return MaskedOccluder(fill.projection * instance_world(v), uv);
+fn occluder_masked_vs(v: InstancedVertex, @location(11) uv: vec2<f32>) -> MaskedPosition {
+    return MaskedPosition(fill.projection * instance_world(v), uv);
 }
 
 @fragment
-fn occluder_masked_fs(in: MaskedOccluder) -> @location(0) vec4<f32> {
-    if (!mask_blocks(in.uv)) {
-        discard;
-    }
+fn occluder_masked_fs(in: MaskedPosition) -> @location(0) vec4<f32> {
+    drop_holes(in.uv);
     return vec4<f32>(0.0);
 }
 

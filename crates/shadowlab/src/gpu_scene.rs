@@ -114,6 +114,8 @@ pub struct GpuScene {
     pub base_colours: Vec<wgpu::BindGroup>,
     /// The base colour texture of each material (index into `base_colours`).
     material_textures: Vec<u32>,
+    /// GPU memory of the base colour textures.
+    texture_bytes: u64,
 }
 
 /// The draw-group key of an instance: casters first, then by mobility, mesh, culling, winding and
@@ -166,6 +168,7 @@ impl GpuScene {
             warnings: Vec::new(),
             base_colours: Vec::new(),
             material_textures: Vec::new(),
+            texture_bytes: 0,
         };
         gpu_scene.upload_masks(device, queue, scene);
         gpu_scene.upload_base_colours(device, queue, scene);
@@ -215,7 +218,8 @@ impl GpuScene {
         self.bytes = self.vertices.size()
             + self.indices.size()
             + self.instances.size()
-            + self.masks.as_ref().map_or(0, |m| m.bytes);
+            + self.masks.as_ref().map_or(0, |m| m.bytes)
+            + self.texture_bytes;
     }
 
     fn key(&self, scene: &Scene, i: usize) -> GroupKey {
@@ -247,8 +251,17 @@ impl GpuScene {
                 if let Some(&(_, k)) = seen.iter().find(|(t, _)| *t == texture) {
                     return k;
                 }
+                let largest = device.limits().max_texture_dimension_2d;
                 let k = match shadowlab_core::texture::Rgba8::read(texture) {
+                    Ok(Some(image)) if image.width.max(image.height) > largest => {
+                        self.warnings.push(format!(
+                            "material '{}': its {}×{} base colour texture exceeds the GPU's {largest} texels: left white",
+                            m.name, image.width, image.height
+                        ));
+                        0
+                    }
                     Ok(Some(image)) => {
+                        self.texture_bytes += 4 * u64::from(image.width) * u64::from(image.height);
                         self.base_colours.push(base_colour_group(device, queue, &image));
                         self.base_colours.len() as u32 - 1
                     }
@@ -270,7 +283,7 @@ impl GpuScene {
     /// Decodes the alpha masks of the scene's alpha-masked materials (`shadowlab_core::alpha`, as
     /// the truth reads them) into one texture array.
     fn upload_masks(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) {
-        let mut coverages = Vec::new();
+        let (mut coverages, mut names) = (Vec::new(), Vec::new());
         self.material_masks = scene
             .materials
             .iter()
@@ -283,9 +296,35 @@ impl GpuScene {
                     }
                 };
                 coverages.push(coverage);
+                names.push(m.name.as_str());
                 Some(coverages.len() as u32 - 1)
             })
             .collect();
+        // A mask past the adapter's texture limits cannot be uploaded: its material is drawn
+        // opaque into the maps, and said so (the truth still cuts its holes).
+        let limits = device.limits();
+        for (c, name) in coverages.iter_mut().zip(&names) {
+            if let Some(mask) = &c.mask
+                && mask.width.max(mask.height) > limits.max_texture_dimension_2d
+            {
+                self.warnings.push(format!(
+                    "material '{name}': its {}×{} alpha mask exceeds the GPU's {} texels: the maps draw it opaque",
+                    mask.width, mask.height, limits.max_texture_dimension_2d
+                ));
+                c.mask = None;
+                c.base_alpha = 1.0;
+                c.cutoff = 0.0;
+            }
+        }
+        if coverages.len() as u32 + 1 > limits.max_texture_array_layers {
+            self.warnings.push(format!(
+                "{} alpha-masked materials exceed the GPU's {} texture layers: the maps draw them opaque",
+                coverages.len(),
+                limits.max_texture_array_layers
+            ));
+            self.material_masks.iter_mut().for_each(|m| *m = None);
+            return;
+        }
         if !coverages.is_empty() {
             self.masks = Some(AlphaMasks::new(device, queue, &coverages));
         }
@@ -432,7 +471,9 @@ impl AlphaMasks {
             .iter()
             .filter_map(|c| c.mask.as_ref())
             .fold((1, 1), |(w, h), m| (w.max(m.width), h.max(m.height)));
-        let layers = crate::shadowmap::padded_layers(coverages.len() as u32, false).max(2);
+        // Padded as on GL (which takes 1 layer for a 2D texture, 6 for a cube map) whatever the
+        // backend: one spare layer at most.
+        let layers = crate::shadowmap::padded_layers(coverages.len() as u32, true);
         // Layer k holds mask k's alpha in its top-left corner (the rest never read).
         let mut texels = vec![0u8; (w as usize) * (h as usize) * layers as usize];
         for (k, m) in coverages.iter().enumerate().filter_map(|(k, c)| c.mask.as_ref().map(|m| (k, m))) {

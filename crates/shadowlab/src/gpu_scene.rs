@@ -383,6 +383,11 @@ impl GpuScene {
     }
 
     /// The caster groups of the given mobilities.
+    /// Whether the material at `index` cuts holes in the maps (alpha-masked and uploaded).
+    pub fn masked_material(&self, index: usize) -> bool {
+        self.material_masks.get(index).copied().flatten().is_some()
+    }
+
     pub fn casters<'g>(&'g self, classes: &'g [Mobility]) -> impl Iterator<Item = &'g DrawGroup> + 'g {
         self.groups.iter().filter(move |g| g.casts_shadows && classes.contains(&g.mobility))
     }

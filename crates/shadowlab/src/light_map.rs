@@ -52,6 +52,7 @@ impl LightMap {
             faces: FaceMode::parse(p.choice("faces")),
             slope_bias: p.float("slope_bias") as f32,
             linear_depth: false,
+            only_masked: false,
         };
         Self {
             maps: None,
@@ -83,6 +84,7 @@ impl LightMap {
             faces: FaceMode::parse(p.choice("faces")),
             slope_bias: p.float("slope_bias") as f32,
             linear_depth: false,
+            only_masked: self.raster.only_masked,
         };
         self.bias.values.x = p.float("normal_offset") as f32;
         self.bias.values.y = p.float("constant_bias") as f32;

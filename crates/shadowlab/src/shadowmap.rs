@@ -72,6 +72,9 @@ pub struct Raster {
     /// Store each view's `ShadowView::linear_depth` (warped maps), written by the fragment shader
     /// with the slope bias applied there, instead of the rasterised projective depth.
     pub linear_depth: bool,
+    /// Draw only the alpha-masked casters: the map of the casters `volumes` cannot extrude
+    /// (its fallback for them).
+    pub only_masked: bool,
 }
 
 /// Parameters shared by `hard`, `pcf` and the other map techniques (see [`map_params!`](crate::map_params)).
@@ -345,7 +348,7 @@ impl ShadowMapArray {
         pass.set_bind_group(0, Some(group), &[(u64::from(slot) * self.stride) as u32]);
         let mut draws = 0;
         let mut current: Option<(wgpu::Face, bool, bool, bool)> = None;
-        for g in ctx.gpu_scene.casters(classes) {
+        for g in ctx.gpu_scene.casters(classes).filter(|g| !raster.only_masked || g.mask.is_some()) {
             let cull = cull_mode(g, raster.faces);
             let mask = g.mask.zip(ctx.gpu_scene.masks.as_ref());
             let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored, mask.is_some());

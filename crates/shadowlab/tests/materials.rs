@@ -109,14 +109,18 @@ fn alpha_masked_casters_cut_holes_in_every_map() {
         "ssm",
         "cssm",
         "lightmaps:rest=hard",
+        "volumes",
+        "volumes:mode=zfail",
+        "lightmaps",
     ] {
         let run = render(&gpu, &masked, &view, SIZE, spec, &[LightId(0)]);
         let (bad, n) = wrong(&masked, &run, &view);
         println!("{spec}: {bad} of {n} pixels wrong");
         // Measured 0 of 13 804 for each but `blurred` (2) and `cssm` (9), on lavapipe; bound 0.5%
         // (69), for a map texel's rounding at the cells' edges on other adapters. With the card
-        // opaque in the maps: 673 (below). `volumes` cannot cut holes (675 wrong: it draws the card
-        // opaque, as the README says), nor `lightmaps` where its rest is `volumes`.
+        // opaque in the maps: 673 (below). `volumes` (and `lightmaps`, whose rest it is) casts the
+        // card through its masked casters' map: 0 for both modes and `lightmaps`; 675 when it
+        // extruded the card.
         assert!(n > 5000 && (bad as f64) < 0.005 * n as f64, "{spec}: {bad} of {n} pixels wrong");
     }
     // The light maps' own fill (Toromanoff's projection of the casters onto the receiver's plane),
@@ -141,6 +145,33 @@ fn alpha_masked_casters_cut_holes_in_every_map() {
     println!("opaque card against the masked truth: {bad} of {n} wrong");
     // Measured 673 pixels; bound about half.
     assert!(bad > 300, "an opaque card's shadow differs from the checker's by only {bad} pixels");
+}
+
+/// `volumes` when every caster is alpha-masked: no volume is extruded at all, the masked casters'
+/// map casts every shadow; and under a point light (its map a cube) as under the sun.
+#[test]
+fn volumes_with_only_masked_casters() {
+    let gpu = gpu();
+    let mut only = scene(AlphaMode::Mask { cutoff: 0.5 });
+    only.instances.iter_mut().find(|i| i.name == "ground").unwrap().casts_shadows = false;
+    let mut point = only.clone();
+    point.lights[0] =
+        Light::new("bulb", LightKind::Point { position: Vec3::new(-3.0, 5.0, 0.3), radius: 0.0 }, Vec3::ONE, 40.0);
+    let view = only.views[0].clone();
+    for (name, scene) in [("sun", &only), ("point light", &point)] {
+        let probe = render(&gpu, scene, &view, SIZE, "hard", &[LightId(0)]);
+        let dark = reference(scene, &probe.surface, LightId(0), 1).iter().filter(|&&x| x == 0.0).count();
+        for spec in ["volumes", "volumes:mode=zpass"] {
+            let run = render(&gpu, scene, &view, SIZE, spec, &[LightId(0)]);
+            let (bad, n) = wrong(scene, &run, &view);
+            println!("{name}, {spec}: {bad} of {n} pixels wrong ({dark} in shadow)");
+            // Measured 0 of 13 804 under the sun (795 pixels in shadow) and 0 of 13 656 under the
+            // point light (1 919), both modes; bound 0.5% as above. The shadow is on screen (measured
+            // 795 and 1 919; bound 200), so a map that drew nothing would be wrong there.
+            assert!(dark > 200, "{name}: the checker's shadow is on screen: {dark}");
+            assert!(n > 5000 && (bad as f64) < 0.005 * n as f64, "{name}, {spec}: {bad} of {n} pixels wrong");
+        }
+    }
 }
 
 #[test]
@@ -181,7 +212,7 @@ fn masked_casters_stay_exact_in_the_live_engine() {
     let gpu = gpu();
     let scene = scene(AlphaMode::Mask { cutoff: 0.5 });
     let view = scene.views[0].clone();
-    for spec in ["hard", "pcf"] {
+    for spec in ["hard", "pcf", "volumes"] {
         let mut renderer = Renderer::new(&gpu, scene.clone(), &view, SIZE, SIZE);
         renderer.set_technique(LightId(0), &TechniqueSpec::parse(spec, &[]).unwrap()).unwrap();
         let card = renderer.shadows.live().find_instance("card").unwrap();

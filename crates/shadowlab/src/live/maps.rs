@@ -460,5 +460,6 @@ fn raster_hash(raster: &Raster, size: u32, extra: u64) -> u64 {
         crate::shadowmap::FaceMode::Front => 1,
         crate::shadowmap::FaceMode::Both => 2,
     };
-    faces ^ (u64::from(raster.slope_bias.to_bits()) << 2) ^ (u64::from(size) << 34) ^ extra.rotate_left(17)
+    let masked = u64::from(raster.only_masked) << 63;
+    faces ^ masked ^ (u64::from(raster.slope_bias.to_bits()) << 2) ^ (u64::from(size) << 34) ^ extra.rotate_left(17)
 }

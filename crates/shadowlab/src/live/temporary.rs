@@ -139,7 +139,7 @@ impl TemporaryShadows {
         }
         let (maps, group) = self.maps.as_ref().expect("made above");
         maps.set_views(&ctx.gpu.queue, 0, &views);
-        let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false };
+        let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
         for i in 0..n {
             maps.render_casters(ctx, i, i, &raster, &[Mobility::Temporary], true);
         }

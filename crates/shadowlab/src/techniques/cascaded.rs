@@ -252,6 +252,7 @@ impl Cascaded {
                 slope_bias: self.params.float("slope_bias") as f32,
                 // Warped splits store linear depth (ShadowView::linear_depth).
                 linear_depth: self.settings.warp != Warp::None,
+                only_masked: false,
             },
             lookup,
             selection,

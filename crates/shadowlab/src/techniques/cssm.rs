@@ -149,6 +149,7 @@ fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn 
         faces: FaceMode::parse(params.choice("faces")),
         slope_bias: params.float("slope_bias") as f32,
         linear_depth: false,
+        only_masked: false,
     };
     Ok(Box::new(Cssm {
         params: params.clone(),

@@ -157,6 +157,7 @@ impl Sampled {
                 faces: FaceMode::parse(self.params.choice("faces")),
                 slope_bias: self.params.float("slope_bias") as f32,
                 linear_depth: false,
+                only_masked: false,
             },
             accum_bytes: accum.size(),
             size: (w, h),

@@ -29,9 +29,13 @@
 //! clamping instead of near clipping, the stencil started at the eye's parity; exact where volumes
 //! do not overlap).
 //!
-//! Alpha-masked casters (leaves, fences: `AlphaMode::Mask`) are extruded whole, as opaque: a
-//! volume is built from geometry, and a texture's holes have none (the map techniques' depth passes
-//! drop them, `shaders/alpha_mask.wgsl`). A scene of such casters wants a map technique.
+//! Alpha-masked casters (leaves, fences: `AlphaMode::Mask`) cannot be extruded: a volume is built
+//! from geometry, and a texture's holes have none. They fall back to a hard shadow map of their
+//! own (a [`LightMap`] from the light's centre that draws only them, dropping their holes as every
+//! map's depth pass does, `shaders/alpha_mask.wgsl`; cached like any map view), and the resolve
+//! shadows a pixel that either the stencil or that map shadows. Their shadows are therefore a
+//! map's: hard, from the centre even with `samples` > 1, with `hard`'s bias and resolution. With
+//! `crop=true`, or as the shadow mask of `lightmesh`, they are extruded whole (opaque).
 
 mod geometry;
 mod plan;
@@ -137,6 +141,9 @@ pub(crate) struct Volumes {
     /// Screen-sized buffers and per-sample uniforms.
     state: Option<State>,
     receivers: Option<Receivers>,
+    /// The alpha-masked casters' map (their fallback; see the module's doc), while the scene has
+    /// any in this instance's set.
+    masked: Option<LightMap>,
     /// A region's culling against its surface (`cull.wgsl`).
     cull: Cull,
     /// The last frame's plans (methods, drawn casters, for the draws and the stats).
@@ -420,6 +427,7 @@ impl Volumes {
             store: None,
             state: None,
             receivers: None,
+            masked: None,
             cull: Cull::default(),
             plans: Vec::new(),
             frames: 0,
@@ -816,20 +824,52 @@ fn receiver_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
     })
 }
 
-fn resolve_pipeline(shared: &Shared, entry: &str, crop: bool) -> wgpu::ComputePipeline {
+/// The shadow map a resolve reads beside the stencil's mask.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Lookup {
+    None,
+    /// Cropped receivers take the map's visibility (`crop`).
+    Crop,
+    /// The alpha-masked casters' map shadows any pixel too (their fallback).
+    Masked,
+}
+
+fn resolve_pipeline(shared: &Shared, entry: &str, lookup: Lookup) -> wgpu::ComputePipeline {
     let source = include_str!("resolve.wgsl");
-    if crop {
-        shared.resolve_pipeline_with(
+    let layouts = [&lookup_layout(shared), &sample_layout(shared)];
+    match lookup {
+        Lookup::Crop => shared.resolve_pipeline_with(
             &format!("volumes resolve {entry} crop"),
             source,
             entry,
-            &[&lookup_layout(shared), &sample_layout(shared)],
+            &layouts,
             &[],
-            &["CROP"],
-        )
-    } else {
-        shared.resolve_pipeline(&format!("volumes resolve {entry}"), source, entry, &[&sample_layout(shared)], &[])
+            &["MAPPED", "CROP"],
+        ),
+        Lookup::Masked => shared.resolve_pipeline_with(
+            &format!("volumes resolve {entry} masked"),
+            source,
+            entry,
+            &layouts,
+            &[],
+            &["MAPPED", "MASKED"],
+        ),
+        Lookup::None => {
+            shared.resolve_pipeline(&format!("volumes resolve {entry}"), source, entry, &[&sample_layout(shared)], &[])
+        }
     }
+}
+
+/// The instances whose material the maps draw with holes (`GpuScene::masked_material`).
+fn masked_instances(ctx: &FrameContext<'_>) -> Vec<crate::live::InstanceId> {
+    let scene = ctx.live.scene();
+    scene
+        .instances
+        .iter()
+        .zip(ctx.live.instances())
+        .filter(|(i, _)| ctx.gpu_scene.masked_material(i.material.index()))
+        .map(|(_, state)| state.id)
+        .collect()
 }
 
 /// The light's samples: its centre, or `samples` points on an area emitter.
@@ -1043,6 +1083,14 @@ impl Volumes {
         let clamp = device.features().contains(wgpu::Features::DEPTH_CLIP_CONTROL);
         let parity = self.settings.parity;
         let crop = self.crop;
+        // The map the resolve reads beside the stencil: the cropped receivers', or the alpha-masked
+        // casters' (never both: cropping keeps masked casters in the volumes).
+        let map = self.receivers.as_ref().map(|r| &r.map).or(self.masked.as_ref());
+        let lookup = match (&self.receivers, &self.masked) {
+            (Some(_), _) => Lookup::Crop,
+            (None, Some(_)) => Lookup::Masked,
+            (None, None) => Lookup::None,
+        };
         let stencil_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("volumes stencil"),
             layout: &stencil_layout(shared),
@@ -1271,12 +1319,12 @@ impl Volumes {
                 label: Some("volume resolve"),
                 timestamp_writes: timestamps,
             });
-            pass.set_pipeline(&resolve_pipeline(shared, entry, crop));
+            pass.set_pipeline(&resolve_pipeline(shared, entry, lookup));
             pass.set_bind_group(0, Some(&group0), &[]);
             let offset = (i as u64 * state.sample_stride) as u32;
-            match &self.receivers {
-                Some(r) => {
-                    pass.set_bind_group(1, r.map.group(), &[]);
+            match map {
+                Some(map) => {
+                    pass.set_bind_group(1, map.group(), &[]);
                     pass.set_bind_group(2, Some(&sample_group), &[offset]);
                 }
                 None => pass.set_bind_group(1, Some(&sample_group), &[offset]),
@@ -1289,11 +1337,11 @@ impl Volumes {
                 label: Some("volume finish"),
                 timestamp_writes: timestamps,
             });
-            pass.set_pipeline(&resolve_pipeline(shared, "finish", crop));
+            pass.set_pipeline(&resolve_pipeline(shared, "finish", lookup));
             pass.set_bind_group(0, Some(&group0), &[]);
-            match &self.receivers {
-                Some(r) => {
-                    pass.set_bind_group(1, r.map.group(), &[]);
+            match map {
+                Some(map) => {
+                    pass.set_bind_group(1, map.group(), &[]);
                     pass.set_bind_group(2, Some(&sample_group), &[0]);
                 }
                 None => pass.set_bind_group(1, Some(&sample_group), &[0]),
@@ -1351,6 +1399,21 @@ impl ShadowTechnique for Volumes {
             self.casters = Caster::all(ctx.live, &topology);
             let set = self.caster_set;
             self.casters.retain(|c| set.keeps(c.mobility));
+            // Alpha-masked casters leave the volumes for their own map (see the module's doc).
+            let masked = masked_instances(ctx);
+            let fallback = !self.crop && !self.mask_only && self.casters.iter().any(|c| masked.contains(&c.id));
+            if fallback {
+                self.casters.retain(|c| !masked.contains(&c.id));
+                if self.masked.is_none() {
+                    let mut map = LightMap::new(ctx.shared, &self.params, false);
+                    map.raster.only_masked = true;
+                    self.masked = Some(map);
+                }
+            } else if let Some(map) = self.masked.take()
+                && let Some(maps) = &map.maps
+            {
+                maps.forget_items(ctx);
+            }
             self.caster_bounds = caster_bounds(&self.casters);
             self.caster_epoch = Some(ctx.live.epoch());
             if let Some(store) = &mut self.store
@@ -1389,6 +1452,9 @@ impl ShadowTechnique for Volumes {
         }
         if let Some(r) = &mut self.receivers {
             r.map.update(ctx)?;
+        }
+        if let Some(map) = &mut self.masked {
+            map.update(ctx)?;
         }
         let (Some(state), Some(store)) = (&self.state, &self.store) else { return Ok(()) };
         let camera = volume_camera(ctx);
@@ -1432,11 +1498,15 @@ impl ShadowTechnique for Volumes {
     /// Shown once every object's volumes were extracted (alg. 14: a light is shadowed by volumes
     /// only when all its objects' are ready); later updates are atomic per object.
     fn shown(&self) -> bool {
-        self.store.as_ref().is_some_and(|s| s.complete_once) && self.receivers.as_ref().is_none_or(|r| r.map.shown())
+        self.store.as_ref().is_some_and(|s| s.complete_once)
+            && self.receivers.as_ref().is_none_or(|r| r.map.shown())
+            && self.masked.as_ref().is_none_or(LightMap::shown)
     }
 
     fn current(&self) -> bool {
-        self.store.as_ref().is_some_and(|s| s.current) && self.receivers.as_ref().is_none_or(|r| r.map.current())
+        self.store.as_ref().is_some_and(|s| s.current)
+            && self.receivers.as_ref().is_none_or(|r| r.map.current())
+            && self.masked.as_ref().is_none_or(LightMap::current)
     }
 
     fn fill_counts(&self) -> Vec<&wgpu::Buffer> {
@@ -1487,8 +1557,9 @@ impl ShadowTechnique for Volumes {
         let topology = self.topology.as_ref().map_or(0, |t| t.bytes);
         let store = self.store.as_ref().map_or(0, |s| s.bytes);
         let receivers = self.receivers.as_ref().map_or(0, |r| r.instances.size() + r.map.bytes());
+        let masked = self.masked.as_ref().map_or(0, LightMap::bytes);
         TechniqueStats {
-            memory_bytes: state.bytes + store + receivers + topology + self.cull.bytes(),
+            memory_bytes: state.bytes + store + receivers + masked + topology + self.cull.bytes(),
             passes: if self.mask_only { 2 * n } else { 3 * n + u32::from(n > 1) },
             draws: self.stats.draws,
             triangles: self.stats.triangles.unwrap_or(0),

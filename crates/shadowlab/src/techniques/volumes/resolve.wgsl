@@ -1,6 +1,7 @@
 // Shadow volumes → visibility. Area lights are sampled: one stencil pass per sample, averaged here
 // as `sampled` averages its maps. With receiver cropping (CROP; Toromanoff 2005 alg. 12),
-// receivers take their visibility from a shadow map instead.
+// receivers take their visibility from a shadow map instead. With MASKED, the alpha-masked
+// casters, which have no volumes, shadow through a map of their own (mod.rs: the fallback).
 
 // #include "resolve.wgsl"
 
@@ -15,7 +16,7 @@ struct VolumeSample {
 
 // The stencil, turned into a mask by stencil-tested draws (stencil.wgsl: mask_fs): 1 shadow,
 // 0 lit, 0.5 a cropped receiver. (wgpu's GL backend cannot read stencil textures.)
-// #ifdef CROP
+// #ifdef MAPPED
 // #include "maplookup.wgsl"
 @group(2) @binding(0) var mask_texture: texture_2d<f32>;
 @group(2) @binding(1) var<storage, read_write> accum: array<vec2<f32>>;
@@ -26,13 +27,26 @@ struct VolumeSample {
 @group(1) @binding(2) var<uniform> sample: VolumeSample;
 // #endif
 
+// #ifdef MAPPED
+// Whether the map (the receivers' or the masked casters') shadows this point.
+fn map_shadows(s: Surface) -> bool {
+    let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
+    return mp.on_map && map_tap(mp, vec2<f32>(0.0), mp.layer) < 0.5;
+}
+// #endif
+
 fn in_shadow(s: Surface, pixel: vec2<u32>) -> bool {
     let m = textureLoad(mask_texture, vec2<i32>(pixel), 0).r;
 // #ifdef CROP
     if (m > 0.25 && m < 0.75) {
         // A receiver: the shadow map decides.
-        let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
-        return mp.on_map && map_tap(mp, vec2<f32>(0.0), mp.layer) < 0.5;
+        return map_shadows(s);
+    }
+// #endif
+// #ifdef MASKED
+    if (m < 0.75) {
+        // Lit by the volumes: the alpha-masked casters' map may still shadow it.
+        return map_shadows(s);
     }
 // #endif
     return m > 0.75;

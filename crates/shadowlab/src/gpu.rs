@@ -157,7 +157,10 @@ impl Gpu {
     pub async fn open(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
         let info = adapter.get_info();
         let features = adapter.features() & wanted_features();
-        let mut limits = wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits());
+        // Only limits the adapter has: WebGL2 (no compute) starts from WebGL2's own defaults.
+        let compute = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS);
+        let base = if compute { wgpu::Limits::downlevel_defaults() } else { wgpu::Limits::downlevel_webgl2_defaults() };
+        let mut limits = base.using_resolution(adapter.limits());
         // Shadow maps want large textures and many array layers (cube faces, cascades, samples).
         let al = adapter.limits();
         limits.max_texture_dimension_2d = al.max_texture_dimension_2d;

@@ -1,0 +1,210 @@
+// The web page (web/, built by web/build.sh) in a real browser: Debian's Chromium, headless,
+// driven by puppeteer-core. For WebGPU: waits for frames, checks the canvas is not blank (pixel
+// variance), switches the technique through the page's own control and checks the image changes.
+// For WebGL2: checks the page says why it draws nothing and greys the techniques out. Any console
+// error, page error or panic fails the run.
+//
+// Usage: node web/test/browser.mjs [--chromium=/usr/bin/chromium] [--screenshot=docs/web-page.png]
+// (npm ci in web/test first). Exit code 0 when every check passed.
+import fs from 'node:fs';
+import http from 'node:http';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import puppeteer from 'puppeteer-core';
+import { PNG } from 'pngjs';
+
+const args = Object.fromEntries(process.argv.slice(2).map(a => a.replace(/^--/, '').split('=')));
+const chromium = args.chromium || '/usr/bin/chromium';
+const web = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
+const TIMEOUT = 180_000;
+// WebGPU on SwiftShader (Dawn's CPU adapter) with a canvas the compositor shows, and WebGL2 on
+// ANGLE over SwiftShader: no GPU needed.
+const FLAGS = [
+  '--headless=new', '--no-sandbox', '--enable-unsafe-webgpu', '--ignore-gpu-blocklist',
+  '--enable-unsafe-swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader', '--use-angle=swiftshader',
+];
+
+const types = { '.html': 'text/html', '.js': 'text/javascript', '.wasm': 'application/wasm', '.png': 'image/png' };
+const server = http.createServer((req, res) => {
+  const file = path.join(web, decodeURIComponent(new URL(req.url, 'http://x').pathname));
+  if (!file.startsWith(web) || !fs.existsSync(file) || fs.statSync(file).isDirectory()) {
+    res.writeHead(404).end();
+    return;
+  }
+  res.writeHead(200, { 'content-type': types[path.extname(file)] || 'application/octet-stream' });
+  fs.createReadStream(file).pipe(res);
+});
+await new Promise(r => server.listen(0, '127.0.0.1', r));
+const base = `http://127.0.0.1:${server.address().port}/index.html`;
+
+// A 4 m floor and a 1 m box floating above it (both closed, outward-wound), as OBJ text.
+function boxObj() {
+  const lines = [];
+  const cuboid = (x0, y0, z0, x1, y1, z1) => {
+    const base = lines.filter(l => l.startsWith('v ')).length;
+    for (const [x, y, z] of [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0], [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]]) {
+      lines.push(`v ${x} ${y} ${z}`);
+    }
+    const quads = [[1, 4, 3, 2], [5, 6, 7, 8], [1, 2, 6, 5], [4, 8, 7, 3], [1, 5, 8, 4], [2, 3, 7, 6]];
+    for (const q of quads) lines.push('f ' + q.map(i => i + base).join(' '));
+  };
+  cuboid(-2, -0.1, -2, 2, 0, 2);
+  cuboid(-0.5, 0.8, -0.5, 0.5, 1.8, 0.5);
+  return lines.join('\n') + '\n';
+}
+
+const failures = [];
+const check = (ok, what) => {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures.push(what);
+};
+
+function pixels(buffer) {
+  const png = PNG.sync.read(Buffer.from(buffer));
+  return png;
+}
+
+// Variance of the luminance over the image: 0 for a blank canvas.
+function variance(png) {
+  let n = 0, sum = 0, sum2 = 0;
+  for (let i = 0; i < png.data.length; i += 4) {
+    const y = 0.2126 * png.data[i] + 0.7152 * png.data[i + 1] + 0.0722 * png.data[i + 2];
+    n++; sum += y; sum2 += y * y;
+  }
+  return sum2 / n - (sum / n) ** 2;
+}
+
+// Pixels whose colour differs by more than 8 levels in any channel.
+function changed(a, b) {
+  let count = 0;
+  for (let i = 0; i < a.data.length; i += 4) {
+    if ([0, 1, 2].some(c => Math.abs(a.data[i + c] - b.data[i + c]) > 8)) count++;
+  }
+  return count;
+}
+
+const browser = await puppeteer.launch({ executablePath: chromium, headless: true, args: FLAGS, protocolTimeout: TIMEOUT });
+const version = await browser.version();
+console.log(`browser: ${version}`);
+// The GPU process must be up before a WebGPU page loads (else the canvas may lose its device).
+const cdp = await browser.target().createCDPSession();
+await cdp.send('SystemInfo.getInfo');
+await cdp.detach();
+
+async function open(backend, technique) {
+  const page = await browser.newPage();
+  await page.setViewport({ width: 720, height: 400 });
+  const errors = [];
+  page.on('console', m => {
+    console.log(`  [console.${m.type()}] ${m.text()}`);
+    if (m.type() === 'error') errors.push(m.text());
+  });
+  page.on('pageerror', e => { console.log(`  [pageerror] ${e.message}`); errors.push(e.message); });
+  await page.goto(`${base}?backend=${backend}&scene=penumbra&technique=${technique}`, { waitUntil: 'load', timeout: TIMEOUT });
+  await page.waitForFunction(() => window.shadowlab && (window.shadowlab.ready || window.shadowlab.error), {
+    timeout: TIMEOUT, polling: 100,
+  });
+  return { page, errors };
+}
+
+async function framesAfter(page, count) {
+  const start = await page.evaluate(() => window.shadowlab.frames);
+  await page.waitForFunction(n => window.shadowlab.frames >= n || window.shadowlab.error, { timeout: TIMEOUT, polling: 100 }, start + count);
+}
+
+async function canvas(page) {
+  return pixels(await (await page.$('#scene')).screenshot({ type: 'png' }));
+}
+
+// WebGPU: real shadows, switched from the page.
+{
+  const t0 = performance.now();
+  const { page, errors } = await open('webgpu', 'hard');
+  const error = await page.evaluate(() => window.shadowlab.error);
+  check(!error, `WebGPU: the page started${error ? ': ' + error : ''}`);
+  if (!error) {
+    const backend = await page.evaluate(() => window.shadowlab.app.backend() + ' on ' + window.shadowlab.app.adapter());
+    console.log(`  ${backend}`);
+    check(backend.startsWith('WebGPU'), 'WebGPU: the adapter is a WebGPU one');
+    await framesAfter(page, 3);
+    const hard = await canvas(page);
+    const v = variance(hard);
+    // A blank or uniform canvas has variance 0; the penumbra scene's lit plane, its square and the
+    // shadow measured 5 636 here. Bound: 100.
+    check(v > 100, `WebGPU: the canvas shows the scene (luminance variance ${v.toFixed(0)})`);
+    console.log(`  first frames after ${((performance.now() - t0) / 1000).toFixed(1)} s`);
+    await page.select('#techniques', 'none');
+    await framesAfter(page, 3);
+    const none = await canvas(page);
+    const n = changed(hard, none);
+    // `none` lights the shadow: 2 654 pixels of 76 800 measured different from `hard`; bound 500.
+    check(n > 500, `WebGPU: switching hard → none changes the image (${n} pixels)`);
+    await page.select('#techniques', 'pcss');
+    await framesAfter(page, 3);
+    const pcss = await canvas(page);
+    const m = changed(none, pcss);
+    check(m > 500, `WebGPU: switching none → pcss changes the image (${m} pixels)`);
+    const label = await page.evaluate(() => window.shadowlab.app.technique());
+    check(label === 'pcss', `WebGPU: the engine runs the technique chosen (${label})`);
+    // A scene file through the page's file picker: an OBJ (a floor and a box above it, lit by the
+    // default sun the loader adds), then bytes that are no scene, which must be refused in words.
+    const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'shadowlab-web-'));
+    const obj = path.join(dir, 'box.obj');
+    fs.writeFileSync(obj, boxObj());
+    const junk = path.join(dir, 'junk.glb');
+    fs.writeFileSync(junk, Buffer.from([...Array(256).keys()].map(i => (i * 73 + 11) % 256)));
+    const input = await page.$('#file');
+    await input.uploadFile(obj);
+    await page.waitForFunction(() => window.shadowlab.app.scene() === 'box.obj' || document.getElementById('error').textContent, {
+      timeout: TIMEOUT, polling: 100,
+    });
+    const loaded = await page.evaluate(() => [window.shadowlab.app.scene(), document.getElementById('error').textContent]);
+    check(loaded[0] === 'box.obj', `WebGPU: an OBJ file from the file picker is shown (${loaded.join(' | ')})`);
+    await framesAfter(page, 3);
+    const box = await canvas(page);
+    const b = changed(pcss, box);
+    check(b > 500, `WebGPU: the loaded scene is drawn (${b} pixels changed)`);
+    await input.uploadFile(junk);
+    await page.waitForFunction(() => document.getElementById('error').textContent.includes('junk.glb'), {
+      timeout: TIMEOUT, polling: 100,
+    }).catch(() => {});
+    const refused = await page.evaluate(() => [window.shadowlab.app.scene(), document.getElementById('error').textContent]);
+    console.log(`  refused: ${refused[1]}`);
+    check(refused[0] === 'box.obj' && refused[1].includes('junk.glb'),
+      'WebGPU: bytes that are no scene are refused with a message, and the scene stays');
+    fs.rmSync(dir, { recursive: true, force: true });
+    if (args.screenshot) {
+      await page.select('#techniques', 'pcss');
+      await page.select('#scenes', 'room');
+      await framesAfter(page, 3);
+      await page.screenshot({ path: args.screenshot, type: 'png' });
+      console.log(`  screenshot → ${args.screenshot}`);
+    }
+  }
+  check(errors.length === 0, `WebGPU: no console error or panic (${errors.length})`);
+  await page.close();
+}
+
+// WebGL2: no compute shaders, so no technique runs yet; the page must say so, not crash.
+{
+  const { page, errors } = await open('webgl2', 'hard');
+  const state = await page.evaluate(() => ({
+    error: window.shadowlab.error,
+    backend: window.shadowlab.app && window.shadowlab.app.backend(),
+    running: window.shadowlab.app && window.shadowlab.app.running(),
+    note: document.getElementById('note').textContent,
+    disabled: [...document.querySelectorAll('#techniques option')].every(o => o.disabled && o.title.includes('not available')),
+  }));
+  check(!state.error, `WebGL2: the page started${state.error ? ': ' + state.error : ''}`);
+  check(state.backend === 'WebGL2', `WebGL2: the adapter is a WebGL2 one (${state.backend})`);
+  check(state.running === false && state.note.includes('WebGL2'), 'WebGL2: the page says why it draws nothing');
+  check(state.disabled, 'WebGL2: every technique is greyed out with the reason');
+  check(errors.length === 0, `WebGL2: no console error or panic (${errors.length})`);
+  await page.close();
+}
+
+await browser.close();
+server.close();
+console.log(failures.length ? `${failures.length} check(s) failed` : `all checks passed (${version})`);
+process.exit(failures.length ? 1 : 0);

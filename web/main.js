@@ -41,12 +41,12 @@ async function main() {
   const techList = $('techniques');
   for (const t of JSON.parse(techniques())) {
     const option = new Option(t.id, t.id, false, t.id === technique);
-    option.title = t.summary + (app.running() ? '' : ' (not available: ' + app.note() + ')');
     // Greyed out, with the reason, where the adapter cannot run it.
-    option.disabled = !app.running();
+    const available = app.compute() || t.fragment;
+    option.title = t.summary + (available ? '' : ' (not available here: it needs compute shaders, which WebGL2 lacks)');
+    option.disabled = !available;
     techList.add(option);
   }
-  sceneList.disabled = techList.disabled = !app.running();
 
   sceneList.onchange = () => {
     try { app.load_builtin(sceneList.value); $('error').textContent = ''; } catch (e) { fail(e.message); }

@@ -9,23 +9,52 @@
 //! Nothing here waits: the device is opened with `Gpu::open` (awaited), a frame is recorded and
 //! submitted by [`App::frame`] (no readback), and the page's `requestAnimationFrame` drives it.
 //!
-//! WebGL2 (where the browser has no WebGPU): the device opens with WebGL2's limits, but every
-//! technique resolves its visibility in a compute pass, which WebGL2 lacks, so the page reports
-//! that and renders nothing ([`App::note`]); fragment-shader paths are the issue's next step.
+//! WebGL2 (where the browser has no WebGPU): the device opens with WebGL2's limits (no compute, no
+//! storage buffers), and the techniques with a fragment path (`TechniqueInfo::fragment`: `none`,
+//! `hard`, `pcf`, `pcss`, `cascaded`) resolve in render passes; the page greys the others out
+//! ([`App::note`]).
 //!
 //! The crate's body is compiled for `wasm32` only; natively it is empty.
 
 #![cfg(target_arch = "wasm32")]
 
 use glam::{Quat, Vec3};
+use shadowlab::context::{UNFILTERED, texture_entry};
 use shadowlab::core::{LightId, Scene, View};
 use shadowlab::{Gpu, Renderer, TechniqueSpec};
 use wasm_bindgen::prelude::*;
 
-/// Panics reach the browser's console (a test fails on any console error).
+/// Panics reach the browser's console (a test fails on any console error), and so do wgpu's
+/// warnings and errors (its `log` records: a backend's own errors, such as WebGL's).
 #[wasm_bindgen(start)]
 pub fn install_panic_hook() {
     std::panic::set_hook(Box::new(|info| web_sys::console::error_1(&format!("shadowlab panicked: {info}").into())));
+    if log::set_logger(&CONSOLE).is_ok() {
+        log::set_max_level(log::LevelFilter::Warn);
+    }
+}
+
+/// `log` records to the browser's console: errors as errors, the rest as warnings.
+struct Console;
+static CONSOLE: Console = Console;
+
+impl log::Log for Console {
+    fn enabled(&self, metadata: &log::Metadata<'_>) -> bool {
+        metadata.level() <= log::Level::Warn
+    }
+
+    fn log(&self, record: &log::Record<'_>) {
+        if !self.enabled(record.metadata()) {
+            return;
+        }
+        let text = format!("{}: {}", record.target(), record.args()).into();
+        match record.level() {
+            log::Level::Error => web_sys::console::error_1(&text),
+            _ => web_sys::console::warn_1(&text),
+        }
+    }
+
+    fn flush(&self) {}
 }
 
 /// The names of the built-in scenes, in listing order.
@@ -34,12 +63,13 @@ pub fn scenes() -> Vec<String> {
     shadowlab::core::scenes::builtin().iter().map(|s| s.name.to_owned()).collect()
 }
 
-/// The techniques as JSON: `[{"id", "summary", "lights"}]` (`lights`: the light types it takes).
+/// The techniques as JSON: `[{"id", "summary", "lights", "fragment"}]` (`lights`: the light types
+/// it takes; `fragment`: it runs without compute shaders, on WebGL2).
 #[wasm_bindgen]
 pub fn techniques() -> String {
     let list: Vec<_> = shadowlab::registry()
         .iter()
-        .map(|t| serde_json::json!({ "id": t.id, "summary": t.summary, "lights": t.light_types }))
+        .map(|t| serde_json::json!({ "id": t.id, "summary": t.summary, "lights": t.light_types, "fragment": t.fragment }))
         .collect();
     serde_json::Value::Array(list).to_string()
 }
@@ -56,7 +86,7 @@ pub struct App {
     config: wgpu::SurfaceConfiguration,
     backend: wgpu::Backend,
     blit: Blit,
-    /// `None` where the adapter cannot run the engine (WebGL2: no compute shaders).
+    /// `None` until the first scene is shown.
     renderer: Option<Renderer>,
     scene_name: String,
     view: View,
@@ -129,11 +159,12 @@ impl App {
             frames: 0,
         };
         if !compute {
-            app.note = "This browser gives WebGL2 only. Every shadowlab technique resolves its shadows in a compute \
-                        pass, which WebGL2 lacks; their fragment-shader paths are not built yet. Open the page in a \
-                        browser with WebGPU."
-                .into();
-            return Ok(app);
+            let able: Vec<&str> = shadowlab::registry().iter().filter(|t| t.fragment).map(|t| t.id).collect();
+            app.note = format!(
+                "WebGL2 (this browser has no WebGPU): no compute shaders, so only the techniques with a fragment \
+                 path run here ({}); the others need WebGPU.",
+                able.join(", ")
+            );
         }
         app.load_builtin(&scene)?;
         Ok(app)
@@ -154,14 +185,15 @@ impl App {
         if a.name.is_empty() { format!("a {} adapter", a.device_type) } else { a.name.clone() }
     }
 
-    /// Why nothing is drawn (empty while the engine runs).
+    /// What this adapter cannot do (empty on WebGPU).
     pub fn note(&self) -> String {
         self.note.clone()
     }
 
-    /// Whether the engine runs (false on WebGL2: see [`App::note`]).
-    pub fn running(&self) -> bool {
-        self.renderer.is_some()
+    /// Whether the device runs compute shaders: every technique is available (false on WebGL2,
+    /// where only those with `fragment` in [`techniques`] are).
+    pub fn compute(&self) -> bool {
+        shadowlab::gpu::runs_compute(&self.gpu.device)
     }
 
     /// The scene shown.
@@ -260,9 +292,6 @@ impl App {
 
 impl App {
     fn show(&mut self, name: String, scene: Scene) -> Result<(), JsError> {
-        if self.note.contains("WebGL2") {
-            return Err(JsError::new(&self.note));
-        }
         let view = scene.views.first().cloned().ok_or_else(|| JsError::new("the scene has no view"))?;
         let renderer = Renderer::new(&self.gpu, scene, &view, self.config.width, self.config.height);
         let (old, old_view) = (self.renderer.replace(renderer), std::mem::replace(&mut self.view, view));
@@ -279,7 +308,7 @@ impl App {
     /// Sets `spec` on every light of the renderer (`hard` where it does not apply); the names of
     /// the lights that fell back.
     fn apply_technique(&mut self, spec: &TechniqueSpec) -> Result<Vec<String>, JsError> {
-        let Some(renderer) = &mut self.renderer else { return Err(JsError::new(&self.note)) };
+        let Some(renderer) = &mut self.renderer else { return Err(JsError::new("no scene yet")) };
         let hard = TechniqueSpec::parse("hard", &[]).map_err(js_error)?;
         let mut fallback = Vec::new();
         let lights: Vec<_> = renderer.scene().lights.iter().map(|l| (spec.info.supports(l), l.name.clone())).collect();
@@ -308,16 +337,7 @@ impl Blit {
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("blit"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            }],
+            entries: &[texture_entry(0, wgpu::ShaderStages::FRAGMENT, UNFILTERED, wgpu::TextureViewDimension::D2)],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("blit"),

@@ -33,9 +33,17 @@ pub struct Shared {
     whole_region: wgpu::Buffer,
     /// Shadow maps are read through hardware comparison samplers (all backends but GL).
     pub hardware_compare: bool,
+    /// The device runs compute shaders ([`crate::gpu::runs_compute`]): resolves are compute
+    /// passes; without (WebGL2), the techniques with a fragment path resolve in render passes.
+    pub compute: bool,
     /// Comparison samplers for shadow maps (reversed Z: lit when reference ≥ stored).
     pub compare_nearest: wgpu::Sampler,
     pub compare_linear: wgpu::Sampler,
+    /// A nearest, non-filtering sampler. WebGL2 (GLES) leaves a depth texture "incomplete", so that
+    /// it reads 0, unless it is sampled with nearest filtering: where there is no compute, depths
+    /// are read through this sampler (`SAMPLED_DEPTH` in `lighting.wgsl`, `FRAGMENT` in
+    /// `shaders/resolve.wgsl` and `shaders/maplookup.wgsl`) instead of `textureLoad`.
+    pub nearest: wgpu::Sampler,
     render_pipelines: Mutex<HashMap<String, wgpu::RenderPipeline>>,
     compute_pipelines: Mutex<HashMap<String, wgpu::ComputePipeline>>,
     layouts: Mutex<HashMap<String, wgpu::BindGroupLayout>>,
@@ -45,29 +53,44 @@ pub struct Shared {
 impl Shared {
     pub fn new(gpu: &Gpu) -> Self {
         let device = &gpu.device;
+        let compute = crate::gpu::runs_compute(device);
+        let stage = if compute { wgpu::ShaderStages::COMPUTE } else { wgpu::ShaderStages::FRAGMENT };
+        let mut entries = vec![
+            uniform_entry(0, stage),
+            // Depth read as an unfilterable float: GL cannot `textureLoad` depth textures.
+            texture_entry(1, stage, UNFILTERED, wgpu::TextureViewDimension::D2),
+            texture_entry(2, stage, UNFILTERED, wgpu::TextureViewDimension::D2),
+            uniform_entry(3, stage),
+            // The pixel region a resolve covers (`ResolveRegion`).
+            uniform_entry(5, stage),
+            // The facets' own normals (`SurfaceInputs::set_geometric_normal`).
+            texture_entry(6, stage, UNFILTERED, wgpu::TextureViewDimension::D2),
+        ];
+        if !compute {
+            // Depths read through a nearest sampler (see `Shared::nearest`).
+            entries.push(wgpu::BindGroupLayoutEntry {
+                binding: 7,
+                visibility: stage,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::NonFiltering),
+                count: None,
+            });
+        }
+        if compute {
+            // The layer written (a fragment resolve draws into it instead).
+            entries.push(wgpu::BindGroupLayoutEntry {
+                binding: 4,
+                visibility: stage,
+                ty: wgpu::BindingType::StorageTexture {
+                    access: wgpu::StorageTextureAccess::WriteOnly,
+                    format: crate::frame::VISIBILITY_FORMAT,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                },
+                count: None,
+            });
+        }
         let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("resolve group 0"),
-            entries: &[
-                uniform_entry(0, wgpu::ShaderStages::COMPUTE),
-                // Depth read as an unfilterable float: GL cannot `textureLoad` depth textures.
-                texture_entry(1, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
-                texture_entry(2, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
-                uniform_entry(3, wgpu::ShaderStages::COMPUTE),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: crate::frame::VISIBILITY_FORMAT,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
-                // The pixel region a resolve covers (`ResolveRegion`).
-                uniform_entry(5, wgpu::ShaderStages::COMPUTE),
-                // The facets' own normals (`SurfaceInputs::set_geometric_normal`).
-                texture_entry(6, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
-            ],
+            entries: &entries,
         });
         let whole_region =
             crate::util::uniform_buffer(device, "whole region", bytemuck::bytes_of(&RegionUniform::whole()));
@@ -88,8 +111,15 @@ impl Shared {
             whole_region,
             // wgpu's GL backend returns 0 from comparison samples of depth arrays (seen on Mesa).
             hardware_compare: gpu.adapter.backend != "gl",
+            compute,
             compare_nearest: compare(wgpu::FilterMode::Nearest),
             compare_linear: compare(wgpu::FilterMode::Linear),
+            nearest: device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("nearest"),
+                address_mode_u: wgpu::AddressMode::ClampToEdge,
+                address_mode_v: wgpu::AddressMode::ClampToEdge,
+                ..Default::default()
+            }),
             render_pipelines: Mutex::default(),
             compute_pipelines: Mutex::default(),
             layouts: Mutex::default(),
@@ -117,22 +147,32 @@ impl Shared {
         out: &VisibilityLayer,
         region: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: surface.camera_buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&surface.depth) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&surface.normal) },
+            wgpu::BindGroupEntry { binding: 3, resource: light.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 5, resource: region.as_entire_binding() },
+            wgpu::BindGroupEntry {
+                binding: 6,
+                resource: wgpu::BindingResource::TextureView(surface.geometric_normal()),
+            },
+        ];
+        if self.compute {
+            entries.push(wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&out.view) });
+        } else {
+            entries.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&self.nearest) });
+        }
         self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("resolve group 0"),
             layout: &self.resolve_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: surface.camera_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&surface.depth) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&surface.normal) },
-                wgpu::BindGroupEntry { binding: 3, resource: light.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&out.view) },
-                wgpu::BindGroupEntry { binding: 5, resource: region.as_entire_binding() },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: wgpu::BindingResource::TextureView(surface.geometric_normal()),
-                },
-            ],
+            entries: &entries,
         })
+    }
+
+    /// The shader stage resolves run in: compute, or fragment where the device has no compute.
+    pub fn resolve_stage(&self) -> wgpu::ShaderStages {
+        if self.compute { wgpu::ShaderStages::COMPUTE } else { wgpu::ShaderStages::FRAGMENT }
     }
 
     /// A render pipeline from the cache, built by `make` the first time `key` is asked for.
@@ -209,6 +249,74 @@ impl Shared {
                 cache: None,
             })
         })
+    }
+}
+
+/// A resolve shader compiled for the device: a compute pipeline (8 × 8 workgroups over the
+/// pixels), or, where the device has no compute (WebGL2), a render pipeline drawing one
+/// triangle over the layer as a render target (`shaders/resolve.wgsl`'s `FRAGMENT`).
+#[derive(Clone)]
+pub enum ResolveProgram {
+    Compute(wgpu::ComputePipeline),
+    Fragment(wgpu::RenderPipeline),
+}
+
+impl Shared {
+    /// A resolve shader with a fragment path: the same WGSL compiled as a compute pipeline, or
+    /// with `FRAGMENT` defined as a render pipeline (vertex `resolve_vs`, fragment `entry`) where
+    /// the device has no compute. Dispatched by `technique::dispatch_program_in`.
+    pub fn resolve_program(
+        &self,
+        key: &str,
+        source: &str,
+        entry: &str,
+        extra: &[&wgpu::BindGroupLayout],
+        defines: &[&str],
+    ) -> ResolveProgram {
+        if self.compute {
+            return ResolveProgram::Compute(self.resolve_pipeline_with(key, source, entry, extra, &[], defines));
+        }
+        ResolveProgram::Fragment(self.render_pipeline(&format!("{key} (fragment)"), || {
+            let device = &self.gpu.device;
+            let mut all: Vec<&str> = defines.to_vec();
+            all.push("FRAGMENT");
+            if self.hardware_compare {
+                all.push("HARDWARE_COMPARE");
+            }
+            let module = crate::shader::module_with(device, key, source, &all);
+            let mut layouts: Vec<Option<&wgpu::BindGroupLayout>> = vec![Some(&self.resolve_layout)];
+            layouts.extend(extra.iter().map(|l| Some(*l)));
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(key),
+                bind_group_layouts: &layouts,
+                immediate_size: 0,
+            });
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(key),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("resolve_vs"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: crate::frame::VISIBILITY_FORMAT,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                multiview_mask: None,
+                cache: None,
+            })
+        }))
     }
 }
 

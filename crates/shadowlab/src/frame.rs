@@ -292,8 +292,13 @@ impl VisibilityLayer {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: VISIBILITY_FORMAT,
-            usage: wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::TEXTURE_BINDING
+            // Written by compute resolves (storage), or by fragment resolves where the device has
+            // no compute (a render target: `technique::dispatch_program_in`).
+            usage: if crate::gpu::runs_compute(device) {
+                wgpu::TextureUsages::STORAGE_BINDING
+            } else {
+                wgpu::TextureUsages::RENDER_ATTACHMENT
+            } | wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::COPY_SRC
                 | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],

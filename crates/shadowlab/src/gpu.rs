@@ -99,6 +99,14 @@ pub struct Gpu {
     errors: std::sync::Arc<std::sync::Mutex<Option<String>>>,
 }
 
+/// Whether `device` runs compute shaders (and storage buffers and textures): every GPU and CPU
+/// adapter but WebGL2, where `Gpu::open` asks for WebGL2's limits, with no compute at all. Without
+/// them the techniques that have a fragment path ([`crate::TechniqueInfo::fragment`]) resolve in
+/// render passes instead, and the others cannot run.
+pub fn runs_compute(device: &wgpu::Device) -> bool {
+    device.limits().max_compute_workgroups_per_dimension > 0
+}
+
 /// Features shadowlab uses when the adapter has them; none is required.
 fn wanted_features() -> wgpu::Features {
     wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::DEPTH_CLIP_CONTROL | wgpu::Features::DEPTH32FLOAT_STENCIL8
@@ -112,7 +120,24 @@ impl Gpu {
         pollster::block_on(Self::new_async(choice))
     }
 
+    /// [`Gpu::new`] with WebGL2's limits, whatever the adapter has: no compute shaders and no
+    /// storage buffers, so the fragment paths run as in a browser without WebGPU (native only:
+    /// the tests of those paths).
+    #[cfg(not(target_arch = "wasm32"))]
+    pub fn new_without_compute(choice: BackendChoice) -> Result<Self, GpuError> {
+        pollster::block_on(async {
+            let adapter = Self::find(choice).await?;
+            Self::open_with(&adapter, false).await
+        })
+    }
+
     pub async fn new_async(choice: BackendChoice) -> Result<Self, GpuError> {
+        let adapter = Self::find(choice).await?;
+        Self::open(&adapter).await
+    }
+
+    /// The adapter `choice` asks for, best first (real GPUs, then Vulkan on the CPU, then GL).
+    async fn find(choice: BackendChoice) -> Result<wgpu::Adapter, GpuError> {
         let backends = match choice {
             BackendChoice::Auto => wgpu::Backends::PRIMARY | wgpu::Backends::GL,
             BackendChoice::Vulkan => wgpu::Backends::VULKAN,
@@ -142,34 +167,40 @@ impl Gpu {
                 (_, false) => 2,
             }
         };
-        let adapter = adapters.into_iter().min_by_key(rank).ok_or(GpuError::NoAdapter {
+        adapters.into_iter().min_by_key(rank).ok_or(GpuError::NoAdapter {
             wanted: match choice {
                 BackendChoice::Auto => "GPU, Vulkan or GL",
                 BackendChoice::Vulkan => "Vulkan",
                 BackendChoice::Gl => "GL",
             },
-        })?;
-        Self::open(&adapter).await
+        })
     }
 
     /// Opens a device on `adapter` with the features and limits shadowlab wants (an application
     /// that owns a window picks the adapter that can present to it, then opens it here).
     pub async fn open(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
+        let compute = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS);
+        Self::open_with(adapter, compute).await
+    }
+
+    /// [`Gpu::open`], with compute shaders or, `compute = false`, with WebGL2's limits.
+    async fn open_with(adapter: &wgpu::Adapter, compute: bool) -> Result<Self, GpuError> {
         let info = adapter.get_info();
         let features = adapter.features() & wanted_features();
         // Only limits the adapter has: WebGL2 (no compute) starts from WebGL2's own defaults.
-        let compute = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS);
         let base = if compute { wgpu::Limits::downlevel_defaults() } else { wgpu::Limits::downlevel_webgl2_defaults() };
         let mut limits = base.using_resolution(adapter.limits());
         // Shadow maps want large textures and many array layers (cube faces, cascades, samples).
         let al = adapter.limits();
         limits.max_texture_dimension_2d = al.max_texture_dimension_2d;
         limits.max_texture_array_layers = al.max_texture_array_layers;
-        limits.max_storage_buffer_binding_size = al.max_storage_buffer_binding_size;
         limits.max_buffer_size = al.max_buffer_size;
-        limits.max_compute_workgroup_storage_size = al.max_compute_workgroup_storage_size;
-        limits.max_storage_buffers_per_shader_stage = al.max_storage_buffers_per_shader_stage.min(8);
-        limits.max_storage_textures_per_shader_stage = al.max_storage_textures_per_shader_stage.min(4);
+        if compute {
+            limits.max_storage_buffer_binding_size = al.max_storage_buffer_binding_size;
+            limits.max_compute_workgroup_storage_size = al.max_compute_workgroup_storage_size;
+            limits.max_storage_buffers_per_shader_stage = al.max_storage_buffers_per_shader_stage.min(8);
+            limits.max_storage_textures_per_shader_stage = al.max_storage_textures_per_shader_stage.min(4);
+        }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("shadowlab"),

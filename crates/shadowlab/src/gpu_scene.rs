@@ -128,9 +128,13 @@ impl GpuScene {
         let mut indices: Vec<u32> = Vec::new();
         let mut meshes = Vec::with_capacity(scene.meshes.len());
         let mut closed = Vec::with_capacity(scene.meshes.len());
+        // WebGL2 (no compute, and no base vertex in indexed draws either): indices hold the
+        // offset into the shared vertex buffer themselves, and every draw's base vertex is 0.
+        let absolute = !crate::gpu::runs_compute(device);
         for m in &scene.meshes {
+            let base = vertices.len() as u32;
             meshes.push(MeshRange {
-                base_vertex: vertices.len() as i32,
+                base_vertex: if absolute { 0 } else { base as i32 },
                 first_index: indices.len() as u32,
                 index_count: (m.triangles.len() * 3) as u32,
             });
@@ -140,7 +144,8 @@ impl GpuScene {
                 normal: n.to_array(),
                 uv: uv(k),
             }));
-            indices.extend(m.triangles.iter().flatten());
+            let offset = if absolute { base } else { 0 };
+            indices.extend(m.triangles.iter().flatten().map(|&i| i + offset));
             closed.push(Topology::build(m).report().is_closed());
         }
         let init = |label: &str, contents: &[u8], usage| {

@@ -108,7 +108,7 @@ pub fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("pcf kernel", || {
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pcf kernel"),
-            entries: &[uniform_entry(0, wgpu::ShaderStages::COMPUTE)],
+            entries: &[uniform_entry(0, shared.resolve_stage())],
         })
     })
 }

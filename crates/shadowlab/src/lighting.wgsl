@@ -18,6 +18,21 @@ struct Environment {
 @group(0) @binding(4) var emissive_texture: texture_2d<f32>;
 @group(0) @binding(5) var<uniform> environment: Environment;
 
+// #ifdef SAMPLED_DEPTH
+// Without compute (WebGL2) depths are read through a nearest sampler: GLES reads 0 from a depth
+// texture without one (context.rs: `Shared::nearest`).
+@group(0) @binding(6) var depth_sampler: sampler;
+
+fn read_depth(pixel: vec2<i32>) -> f32 {
+    let size = vec2<f32>(textureDimensions(depth_texture));
+    return textureSampleLevel(depth_texture, depth_sampler, (vec2<f32>(pixel) + 0.5) / size, 0.0).r;
+}
+// #else
+fn read_depth(pixel: vec2<i32>) -> f32 {
+    return textureLoad(depth_texture, pixel, 0).r;
+}
+// #endif
+
 @group(1) @binding(0) var<uniform> light: Light;
 @group(1) @binding(1) var visibility: texture_2d<f32>;
 
@@ -34,7 +49,7 @@ fn vs_fullscreen(@builtin(vertex_index) vertex: u32) -> @builtin(position) vec4<
 @fragment
 fn fs_base(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(frag.xy);
-    let depth = textureLoad(depth_texture, pixel, 0).r;
+    let depth = read_depth(pixel);
     if (is_background(camera, depth)) {
         return vec4<f32>(environment.background.rgb, 1.0);
     }
@@ -47,7 +62,7 @@ fn fs_base(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
 @fragment
 fn fs_light(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<u32>(frag.xy);
-    let depth = textureLoad(depth_texture, vec2<i32>(pixel), 0).r;
+    let depth = read_depth(vec2<i32>(pixel));
     if (is_background(camera, depth)) {
         return vec4<f32>(0.0);
     }

@@ -48,6 +48,17 @@ impl TechniqueSpec {
 
     /// Creates the technique for one light.
     pub fn create(&self, shared: &Shared, light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
+        if !shared.compute && !self.info.fragment {
+            let able: Vec<&str> = registry().iter().filter(|t| t.fragment).map(|t| t.id).collect();
+            return Err(TechniqueError::Failed {
+                id: self.info.id.to_owned(),
+                message: format!(
+                    "it resolves in compute passes, which this device lacks (WebGL2); techniques with a fragment \
+                     path: {}",
+                    able.join(", ")
+                ),
+            });
+        }
         if !self.info.supports(light) {
             return Err(TechniqueError::Unsupported {
                 id: self.info.id.to_owned(),

@@ -109,17 +109,24 @@ impl Targets {
         surface.set_shows_only_scene(true);
         surface.set_geometric_normal(view_of(&geometric_normal));
         let layouts = lighting_layouts(shared);
+        let (albedo_view, emissive_view) = (view_of(&albedo), view_of(&emissive));
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: surface.camera_buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&surface.depth) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&surface.normal) },
+            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&albedo_view) },
+            wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&emissive_view) },
+            wgpu::BindGroupEntry { binding: 5, resource: environment.as_entire_binding() },
+        ];
+        if !shared.compute {
+            // `SAMPLED_DEPTH` in lighting.wgsl.
+            entries
+                .push(wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::Sampler(&shared.nearest) });
+        }
         let lighting_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("lighting"),
             layout: &layouts.0,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: surface.camera_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&surface.depth) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&surface.normal) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&view_of(&albedo)) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&view_of(&emissive)) },
-                wgpu::BindGroupEntry { binding: 5, resource: environment.as_entire_binding() },
-            ],
+            entries: &entries,
         });
         let tonemap_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tonemap"),
@@ -571,16 +578,26 @@ fn lighting_layouts(shared: &Shared) -> (wgpu::BindGroupLayout, wgpu::BindGroupL
     let float = wgpu::TextureSampleType::Float { filterable: false };
     let frag = wgpu::ShaderStages::FRAGMENT;
     let g0 = shared.layout("lighting group 0", || {
+        let mut entries = vec![
+            crate::context::uniform_entry(0, frag),
+            tex(1, float),
+            tex(2, float),
+            tex(3, float),
+            tex(4, float),
+            crate::context::uniform_entry(5, frag),
+        ];
+        if !shared.compute {
+            // `SAMPLED_DEPTH`: depths through `Shared::nearest`.
+            entries.push(wgpu::BindGroupLayoutEntry {
+                binding: 6,
+                visibility: frag,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::NonFiltering),
+                count: None,
+            });
+        }
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("lighting group 0"),
-            entries: &[
-                crate::context::uniform_entry(0, frag),
-                tex(1, float),
-                tex(2, float),
-                tex(3, float),
-                tex(4, float),
-                crate::context::uniform_entry(5, frag),
-            ],
+            entries: &entries,
         })
     });
     let g1 = shared.layout("lighting group 1", || {
@@ -611,7 +628,8 @@ fn lighting_pipeline(shared: &Shared, entry: &str, additive: bool) -> wgpu::Rend
             bind_group_layouts: groups,
             immediate_size: 0,
         });
-        let module = crate::shader::module(device, "lighting", include_str!("lighting.wgsl"));
+        let defines: &[&str] = if shared.compute { &[] } else { &["SAMPLED_DEPTH"] };
+        let module = crate::shader::module_with(device, "lighting", include_str!("lighting.wgsl"), defines);
         let blend = additive.then_some(wgpu::BlendState {
             color: wgpu::BlendComponent {
                 src_factor: wgpu::BlendFactor::One,
@@ -633,7 +651,8 @@ fn tonemap_pipeline(shared: &Shared) -> wgpu::RenderPipeline {
             bind_group_layouts: &[Some(&g0), None, Some(&g2)],
             immediate_size: 0,
         });
-        let module = crate::shader::module(device, "lighting", include_str!("lighting.wgsl"));
+        let defines: &[&str] = if shared.compute { &[] } else { &["SAMPLED_DEPTH"] };
+        let module = crate::shader::module_with(device, "lighting", include_str!("lighting.wgsl"), defines);
         fullscreen_pipeline(device, "tonemap", &layout, &module, "fs_tonemap", OUTPUT_FORMAT, None)
     })
 }

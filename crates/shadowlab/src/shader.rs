@@ -2,7 +2,7 @@
 //!
 //! WGSL has no include mechanism, so a line `// #include "name.wgsl"` is replaced by the shared
 //! module of that name (each included once per shader, in order). Blocks between `// #ifdef NAME`,
-//! `// #else` and `// #endif` are kept or dropped by the defines given (no nesting). Directives are
+//! `// #else` and `// #endif` are kept or dropped by the defines given (blocks nest). Directives are
 //! comments, so every file stays valid WGSL for editors and validators.
 
 /// The shared modules, by the name used in `#include` lines.
@@ -13,6 +13,7 @@ const SHARED: &[(&str, &str)] = &[
     ("lights.wgsl", include_str!("shaders/lights.wgsl")),
     ("shadowmap.wgsl", include_str!("shaders/shadowmap.wgsl")),
     ("resolve.wgsl", include_str!("shaders/resolve.wgsl")),
+    ("per_pixel.wgsl", include_str!("shaders/per_pixel.wgsl")),
     ("maplookup.wgsl", include_str!("shaders/maplookup.wgsl")),
     ("footprint.wgsl", include_str!("shaders/footprint.wgsl")),
     ("horizon.wgsl", include_str!("shaders/horizon.wgsl")),
@@ -33,23 +34,26 @@ pub fn compose(source: &str, defines: &[&str]) -> String {
 }
 
 fn expand<'a>(source: &'a str, defines: &[&str], out: &mut String, seen: &mut Vec<&'a str>) {
-    // Whether the current #ifdef branch is kept (None outside a block).
-    let mut keep: Option<bool> = None;
+    // The open #ifdef blocks, innermost last: whether each one's current branch is taken. A line
+    // is kept when every enclosing branch is.
+    let mut open: Vec<bool> = Vec::new();
     for line in source.lines() {
         let t = line.trim();
         if let Some(name) = t.strip_prefix("// #ifdef") {
-            keep = Some(defines.contains(&name.trim()));
+            open.push(defines.contains(&name.trim()));
             continue;
         }
         if t == "// #else" {
-            keep = keep.map(|k| !k);
+            if let Some(top) = open.last_mut() {
+                *top = !*top;
+            }
             continue;
         }
         if t == "// #endif" {
-            keep = None;
+            open.pop();
             continue;
         }
-        if keep == Some(false) {
+        if open.contains(&false) {
             continue;
         }
         let directive = t.strip_prefix("// #include").map(|rest| rest.trim().trim_matches('"'));
@@ -105,5 +109,14 @@ mod tests {
         let src = "a\n// #ifdef X\nb\n// #else\nc\n// #endif\nd\n";
         assert_eq!(compose(src, &["X"]), "a\nb\nd\n");
         assert_eq!(compose(src, &[]), "a\nc\nd\n");
+    }
+
+    #[test]
+    fn ifdef_blocks_nest() {
+        let src = "// #ifdef X\nx\n// #ifdef Y\nxy\n// #else\nx-\n// #endif\nx2\n// #else\n-\n// #ifdef Y\n-y\n// #endif\n// #endif\nend\n";
+        assert_eq!(compose(src, &["X", "Y"]), "x\nxy\nx2\nend\n");
+        assert_eq!(compose(src, &["X"]), "x\nx-\nx2\nend\n");
+        assert_eq!(compose(src, &["Y"]), "-\n-y\nend\n");
+        assert_eq!(compose(src, &[]), "-\nend\n");
     }
 }

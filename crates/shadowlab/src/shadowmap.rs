@@ -200,10 +200,17 @@ impl ShadowMapArray {
                 }),
             }],
         });
+        // Without storage buffers (no compute: WebGL2) the lookups read a uniform array of
+        // `UNIFORM_VIEWS` views (`shaders/maplookup.wgsl`).
+        let (slots, usage) = if shared.compute {
+            (capacity.max(1), wgpu::BufferUsages::STORAGE)
+        } else {
+            (capacity.max(UNIFORM_VIEWS), wgpu::BufferUsages::UNIFORM)
+        };
         let views = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("shadow views"),
-            size: (std::mem::size_of::<ShadowViewUniform>() as u64) * u64::from(capacity.max(1)),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            size: (std::mem::size_of::<ShadowViewUniform>() as u64) * u64::from(slots),
+            usage: usage | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         Self {
@@ -522,10 +529,13 @@ fn depth_pipeline(
     })
 }
 
+/// The views a lookup reads from a uniform array where there are no storage buffers (WebGL2).
+pub const UNIFORM_VIEWS: u32 = 16;
+
 /// The group-1 layout of `shaders/maplookup.wgsl`.
 pub fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("map lookup", || {
-        let c = wgpu::ShaderStages::COMPUTE;
+        let c = shared.resolve_stage();
         let entries = {
             let mut entries = vec![
                 wgpu::BindGroupLayoutEntry {
@@ -542,7 +552,11 @@ pub fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
                     },
                     count: None,
                 },
-                crate::context::storage_entry(2, c, true),
+                if shared.compute {
+                    crate::context::storage_entry(2, c, true)
+                } else {
+                    crate::context::uniform_entry(2, c)
+                },
                 crate::context::uniform_entry(3, c),
             ];
             if shared.hardware_compare {
@@ -584,7 +598,7 @@ pub fn selection_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("selection", || {
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("selection"),
-            entries: &[crate::context::uniform_entry(0, wgpu::ShaderStages::COMPUTE)],
+            entries: &[crate::context::uniform_entry(0, shared.resolve_stage())],
         })
     })
 }

@@ -267,6 +267,9 @@ pub struct TechniqueInfo {
     /// For a technique that shadows some pixels itself and hands the others to another technique
     /// (`lightmaps`: receivers from light maps, the rest by `volumes`), how it wraps that one.
     pub compose: Option<Compose>,
+    /// It has a fragment-shader path: it runs on devices without compute shaders (WebGL2), where
+    /// the others cannot ([`crate::gpu::runs_compute`]).
+    pub fragment: bool,
 }
 
 /// How a technique wraps another: the parameter naming the other technique (created by the
@@ -333,6 +336,50 @@ pub fn dispatch_resolve_rect(
         pass.set_bind_group(i as u32, Some(*g), &[]);
     }
     pass.dispatch_workgroups(crate::util::groups(rect[2], 8), crate::util::groups(rect[3], 8), 1);
+}
+
+/// Runs a resolve program ([`crate::context::Shared::resolve_program`]) over
+/// [`FrameContext::resolve_rect`] into `out`: a compute dispatch as [`dispatch_resolve_in`], or,
+/// for a fragment program, one triangle drawn into `out` as a render target, scissored to the
+/// rectangle (the pixels outside keep what they held). Its group 0 must be
+/// [`FrameContext::resolve_group`]`(out)`.
+pub fn dispatch_program_in(
+    ctx: &mut FrameContext<'_>,
+    label: &str,
+    program: &crate::context::ResolveProgram,
+    groups: &[&wgpu::BindGroup],
+    out: &VisibilityLayer,
+) {
+    let pipeline = match program {
+        crate::context::ResolveProgram::Compute(pipeline) => return dispatch_resolve_in(ctx, label, pipeline, groups),
+        crate::context::ResolveProgram::Fragment(pipeline) => pipeline,
+    };
+    let [x, y, w, h] = ctx.resolve_rect();
+    let (x, y) = (x.min(ctx.surface.width), y.min(ctx.surface.height));
+    let (w, h) = (w.min(ctx.surface.width - x), h.min(ctx.surface.height - y));
+    if w == 0 || h == 0 {
+        return;
+    }
+    let timestamps = ctx.timer.render_pass(&ctx.gpu.device, crate::timing::PassKind::Visibility);
+    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &out.view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: timestamps,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_scissor_rect(x, y, w, h);
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    pass.draw(0..3, 0..1);
 }
 
 /// Dispatches a resolve shader over the whole surface (8 × 8 workgroups).

@@ -11,7 +11,12 @@ struct MapParams {
     mode: vec4<f32>,
 };
 
+// #ifdef FRAGMENT
+// No storage buffers without compute (WebGL2): a uniform array (`shadowmap::UNIFORM_VIEWS`).
+@group(1) @binding(2) var<uniform> shadow_views: array<ShadowView, 16>;
+// #else
 @group(1) @binding(2) var<storage, read> shadow_views: array<ShadowView>;
+// #endif
 @group(1) @binding(3) var<uniform> map_params: MapParams;
 
 struct MapPoint {
@@ -109,7 +114,13 @@ fn map_tap_sharp(mp: MapPoint, offset: vec2<f32>, layer: u32, z: f32, ramp: f32)
 }
 
 fn stored_depth(t: vec2<i32>, layer: u32) -> f32 {
+// #ifdef FRAGMENT
+    // Through the nearest sampler (resolve.wgsl): WebGL2 reads 0 from a depth texture without one.
+    let size = vec2<f32>(textureDimensions(shadow_maps));
+    return textureSampleLevel(shadow_maps, nearest_sampler, (vec2<f32>(t) + 0.5) / size, view_layer(layer), 0.0).r;
+// #else
     return textureLoad(shadow_maps, t, view_layer(layer), 0).r;
+// #endif
 }
 // #endif
 

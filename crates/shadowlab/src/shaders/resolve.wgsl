@@ -1,5 +1,7 @@
-// The bindings every visibility-resolve compute shader shares (group 0), and the surface at a
-// pixel. Technique-specific bindings go in group 1.
+// The bindings every visibility-resolve shader shares (group 0), and the surface at a pixel.
+// Technique-specific bindings go in group 1. Compute shaders write the layer (binding 4); with
+// FRAGMENT (devices without compute: WebGL2) the layer is the render target instead, drawn by one
+// triangle from `resolve_vs` (`per_pixel.wgsl` has both entry points).
 
 // #include "common.wgsl"
 // #include "lights.wgsl"
@@ -8,7 +10,29 @@
 @group(0) @binding(1) var depth_texture: texture_2d<f32>;
 @group(0) @binding(2) var normal_texture: texture_2d<f32>;
 @group(0) @binding(3) var<uniform> light: Light;
+// #ifdef FRAGMENT
+// Depths through a nearest sampler: WebGL2 reads 0 from a depth texture without one (context.rs:
+// `Shared::nearest`).
+@group(0) @binding(7) var nearest_sampler: sampler;
+
+fn read_depth(pixel: vec2<u32>) -> f32 {
+    let size = vec2<f32>(textureDimensions(depth_texture));
+    return textureSampleLevel(depth_texture, nearest_sampler, (vec2<f32>(pixel) + 0.5) / size, 0.0).r;
+}
+
+// One triangle over the whole target; the render pass's scissor keeps to the region.
+@vertex
+fn resolve_vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+// #else
 @group(0) @binding(4) var visibility_out: texture_storage_2d<r32float, write>;
+
+fn read_depth(pixel: vec2<u32>) -> f32 {
+    return textureLoad(depth_texture, vec2<i32>(pixel), 0).r;
+}
+// #endif
 
 // The pixels this dispatch covers: x, y the first; z, w width and height (the whole layer: 0, 0
 // and unbounded). A resolve limited to a region (`FrameContext::region`) dispatches its size and
@@ -36,7 +60,7 @@ struct Surface {
 
 fn load_surface(pixel: vec2<u32>) -> Surface {
     var s: Surface;
-    let depth = textureLoad(depth_texture, vec2<i32>(pixel), 0).r;
+    let depth = read_depth(pixel);
     if (is_background(camera, depth)) {
         s.relevant = false;
         return s;

@@ -29,18 +29,19 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: false,
 };
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
     let n = params.int("n") as usize;
     let k = kernel::kernel_uniform("box", n * n, params.float("radius") as f32, false, 0.0);
     let own = kernel::bind_group(shared, &k);
-    let pipeline = shared.resolve_pipeline(
+    let pipeline = crate::context::ResolveProgram::Compute(shared.resolve_pipeline(
         "blurred",
         include_str!("blurred.wgsl"),
         "main",
         &[&lookup_layout(shared), &kernel::layout(shared)],
         &[],
-    );
+    ));
     Ok(MapLookup::boxed(INFO.id, params, true, pipeline, Some(own)))
 }

@@ -38,7 +38,7 @@ use crate::kernel;
 use crate::live::{MapViews, ShadowCache};
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, lookup_group, lookup_layout, selection_layout};
 use crate::technique::{
-    FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+    FrameContext, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_program_in,
 };
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -79,6 +79,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: &["directional", "spot"],
     create,
     compose: None,
+    fragment: true,
 };
 
 #[repr(C)]
@@ -94,7 +95,7 @@ type MeasuredState = (u64, u64, Option<BinSetup>);
 struct Cascaded {
     params: ParamSet,
     settings: CascadeSettings,
-    pipeline: wgpu::ComputePipeline,
+    pipeline: crate::context::ResolveProgram,
     kernel_group: wgpu::BindGroup,
     kernel_bytes: u64,
     state: Option<State>,
@@ -179,10 +180,24 @@ pub fn cascade_settings(params: &ParamSet, light: &Light) -> Result<CascadeSetti
 }
 
 fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let settings = cascade_settings(params, light)?;
+    let mut settings = cascade_settings(params, light)?;
+    if !shared.compute {
+        // Without compute (WebGL2) the visible depths cannot be measured (`DepthRange` is a compute
+        // reduction): `scheme=auto` keeps the splits it starts from (`lambda`), and what needs the
+        // measurement is refused.
+        settings.auto = false;
+        if params.bool("auto_near") || settings.warp == Warp::Psm {
+            return Err(TechniqueError::Failed {
+                id: INFO.id.into(),
+                message: "auto_near and warp=psm measure the visible depths in a compute pass, which this device \
+                          lacks (WebGL2)"
+                    .into(),
+            });
+        }
+    }
     let k = kernel::from_params(params);
     let (kernel_group, kernel_bytes) = kernel::bind_group(shared, &k);
-    let pipeline = shared.resolve_pipeline(
+    let pipeline = shared.resolve_program(
         "cascaded",
         include_str!("cascaded.wgsl"),
         "main",
@@ -386,12 +401,13 @@ impl ShadowTechnique for Cascaded {
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let Some(state) = &self.state else { return };
-        let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(
+        let group0 = ctx.resolve_group(out);
+        dispatch_program_in(
             ctx,
             "cascaded",
             &self.pipeline,
             &[&group0, &state.lookup, &self.kernel_group, &state.selection_group],
+            out,
         );
     }
 

@@ -3,7 +3,7 @@
 // scaled to keep the world-space softness of split 0 (Eq. 3.9), and optionally blended with the next
 // split inside a band at the split's far end.
 
-// #include "resolve.wgsl"
+// #include "per_pixel.wgsl"
 // #include "pcfkernel.wgsl"
 // #include "selection.wgsl"
 
@@ -21,18 +21,14 @@ fn split_visibility(i: u32, s: Surface, l: vec3<f32>, pixel: vec2<u32>) -> f32 {
     return pcf_filter(mp, i, radius, pixel, receiver_plane(mp, s.p, s.n), pixel_texels(mp, s, pixel));
 }
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
-        return;
-    }
-    let s = load_surface(id.xy);
+fn pixel_visibility(pixel: vec2<u32>) -> f32 {
+    let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
         let l = light_vector(light, s.p).xyz;
         let depth = view_depth(camera, s.p);
         let i = select_split(s.p, s.n, l, depth, kernel.params.y + 2.0);
-        v = split_visibility(i, s, l, id.xy);
+        v = split_visibility(i, s, l, pixel);
         let band = selection.params.z;
         if (band > 0.0 && i + 1u < split_count()) {
             let lo = split_distance(i);
@@ -40,9 +36,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             let start = hi - band * (hi - lo);
             if (depth > start) {
                 let t = clamp((depth - start) / max(hi - start, 1.0e-6), 0.0, 1.0);
-                v = mix(v, split_visibility(i + 1u, s, l, id.xy), t);
+                v = mix(v, split_visibility(i + 1u, s, l, pixel), t);
             }
         }
     }
-    textureStore(visibility_out, id.xy, vec4<f32>(v));
+    return v;
 }

@@ -24,9 +24,10 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: true,
 };
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let pipeline = shared.resolve_pipeline("hard", include_str!("hard.wgsl"), "main", &[&lookup_layout(shared)], &[]);
+    let pipeline = shared.resolve_program("hard", include_str!("hard.wgsl"), "main", &[&lookup_layout(shared)], &[]);
     Ok(MapLookup::boxed(INFO.id, params, false, pipeline, None))
 }

@@ -1,14 +1,9 @@
 // `hard`: one nearest comparison per pixel against the light's shadow map.
 
-// #include "resolve.wgsl"
+// #include "per_pixel.wgsl"
 // #include "maplookup.wgsl"
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let pixel = region_pixel(id);
-    if (!in_frame(pixel)) {
-        return;
-    }
+fn pixel_visibility(pixel: vec2<u32>) -> f32 {
     let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
@@ -17,5 +12,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             v = map_tap(mp, vec2<f32>(0.0), mp.layer);
         }
     }
-    textureStore(visibility_out, pixel, vec4<f32>(v));
+    return v;
 }

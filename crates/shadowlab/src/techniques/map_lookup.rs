@@ -1,15 +1,16 @@
 //! The shape shared by `hard`, `pcf`, `pcss` and `blurred`: one hard map from the light's centre
-//! ([`LightMap`]) and one compute pass that looks it up, with an optional bind group of the
+//! ([`LightMap`]) and one resolve that looks it up (a compute pass, or a fragment pass where the
+//! device has no compute: `hard`, `pcf` and `pcss` have that path), with an optional bind group of the
 //! technique's own (group 2: a filter kernel, PCSS's taps). The modules differ only in their WGSL
 //! and that group.
 
 use shadowlab_core::ParamSet;
 
-use crate::context::Shared;
+use crate::context::{ResolveProgram, Shared};
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
 use crate::technique::{
-    FrameContext, Handover, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_resolve_in,
+    FrameContext, Handover, MapAnalysis, ShadowTechnique, TechniqueError, TechniqueStats, dispatch_program_in,
 };
 
 /// Rewrites the part of a technique's own uniform that depends on the light (PCSS's emitter size),
@@ -22,7 +23,7 @@ pub(super) struct MapLookup {
     /// Bilinear comparison taps (2 × 2 PCF) rather than nearest ones.
     linear: bool,
     map: Option<LightMap>,
-    pipeline: wgpu::ComputePipeline,
+    pipeline: ResolveProgram,
     /// The technique's group 2 and the bytes its buffers hold.
     own: Option<(wgpu::BindGroup, u64)>,
     /// The own uniform's light-dependent part, and the emitter version it was written for.
@@ -35,7 +36,7 @@ impl MapLookup {
         id: &'static str,
         params: &ParamSet,
         linear: bool,
-        pipeline: wgpu::ComputePipeline,
+        pipeline: ResolveProgram,
         own: Option<(wgpu::BindGroup, u64)>,
     ) -> Box<dyn ShadowTechnique> {
         Box::new(Self { id, params: params.clone(), linear, map: None, pipeline, own, on_light: None, triangles: 0 })
@@ -46,7 +47,7 @@ impl MapLookup {
         id: &'static str,
         params: &ParamSet,
         linear: bool,
-        pipeline: wgpu::ComputePipeline,
+        pipeline: ResolveProgram,
         own: (wgpu::BindGroup, u64),
         on_light: OnLight,
         buffer: wgpu::Buffer,
@@ -92,8 +93,8 @@ impl ShadowTechnique for MapLookup {
         let Some(group) = self.map.as_ref().and_then(LightMap::group) else { return };
         let group0 = ctx.resolve_group(out);
         match &self.own {
-            Some((own, _)) => dispatch_resolve_in(ctx, self.id, &self.pipeline, &[&group0, group, own]),
-            None => dispatch_resolve_in(ctx, self.id, &self.pipeline, &[&group0, group]),
+            Some((own, _)) => dispatch_program_in(ctx, self.id, &self.pipeline, &[&group0, group, own], out),
+            None => dispatch_program_in(ctx, self.id, &self.pipeline, &[&group0, group], out),
         }
     }
 

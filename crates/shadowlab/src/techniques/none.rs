@@ -2,10 +2,10 @@
 
 use shadowlab_core::{Light, ParamSet};
 
-use crate::context::Shared;
+use crate::context::{ResolveProgram, Shared};
 use crate::frame::VisibilityLayer;
 use crate::technique::{
-    FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve,
+    FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_program_in,
 };
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -16,15 +16,16 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: true,
 };
 
 struct NoShadows {
     params: ParamSet,
-    pipeline: wgpu::ComputePipeline,
+    pipeline: ResolveProgram,
 }
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
-    let pipeline = shared.resolve_pipeline("none", include_str!("none.wgsl"), "main", &[], &[]);
+    let pipeline = shared.resolve_program("none", include_str!("none.wgsl"), "main", &[], &[]);
     Ok(Box::new(NoShadows { params: params.clone(), pipeline }))
 }
 
@@ -42,8 +43,8 @@ impl ShadowTechnique for NoShadows {
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        let group = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
-        dispatch_resolve(ctx, "none", &self.pipeline, &[&group]);
+        let group = ctx.resolve_group(out);
+        dispatch_program_in(ctx, "none", &self.pipeline, &[&group], out);
     }
 
     fn stats(&self) -> TechniqueStats {

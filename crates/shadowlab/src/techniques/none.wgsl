@@ -1,11 +1,7 @@
 // `none`: every pixel sees the whole light.
 
-// #include "resolve.wgsl"
+// #include "per_pixel.wgsl"
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (!in_frame(id.xy)) {
-        return;
-    }
-    textureStore(visibility_out, id.xy, vec4<f32>(1.0));
+fn pixel_visibility(pixel: vec2<u32>) -> f32 {
+    return 1.0;
 }

@@ -20,11 +20,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: true,
 };
 
 fn create(shared: &Shared, params: &ParamSet, _light: &Light) -> Result<Box<dyn ShadowTechnique>, TechniqueError> {
     let own = kernel::bind_group(shared, &kernel::from_params(params));
-    let pipeline = shared.resolve_pipeline(
+    let pipeline = shared.resolve_program(
         "pcf",
         include_str!("pcf.wgsl"),
         "main",

@@ -1,14 +1,9 @@
 // `pcf`: percentage-closer filtering (Reeves, Salesin & Cook 1987) with bilinear comparison taps.
 
-// #include "resolve.wgsl"
+// #include "per_pixel.wgsl"
 // #include "pcfkernel.wgsl"
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let pixel = region_pixel(id);
-    if (!in_frame(pixel)) {
-        return;
-    }
+fn pixel_visibility(pixel: vec2<u32>) -> f32 {
     let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
@@ -17,5 +12,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             v = pcf_filter(mp, mp.layer, kernel_radius_texels(mp), pixel, receiver_plane(mp, s.p, s.n), pixel_texels(mp, s, pixel));
         }
     }
-    textureStore(visibility_out, pixel, vec4<f32>(v));
+    return v;
 }

@@ -37,6 +37,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: true,
 };
 
 /// `Pcss` in `pcss.wgsl`.
@@ -52,7 +53,7 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("pcss", || {
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pcss"),
-            entries: &[uniform_entry(0, wgpu::ShaderStages::COMPUTE)],
+            entries: &[uniform_entry(0, shared.resolve_stage())],
         })
     })
 }
@@ -81,7 +82,7 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
         layout: &layout(shared),
         entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
     });
-    let pipeline = shared.resolve_pipeline(
+    let pipeline = shared.resolve_program(
         "pcss",
         include_str!("pcss.wgsl"),
         "main",

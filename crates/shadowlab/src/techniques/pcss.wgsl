@@ -1,6 +1,7 @@
 // `pcss`: percentage-closer soft shadows (Fernando 2005). Blocker search, penumbra estimate from
 // the average blocker distance by similar triangles, then PCF over a kernel of that size.
 
+// #include "per_pixel.wgsl"
 // #include "footprint.wgsl"
 // #include "horizon.wgsl"
 
@@ -77,12 +78,7 @@ fn pcss_visibility(mp: MapPoint, s: Surface, pixel: vec2<u32>) -> f32 {
     return v / f32(nf);
 }
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let pixel = region_pixel(id);
-    if (!in_frame(pixel)) {
-        return;
-    }
+fn pixel_visibility(pixel: vec2<u32>) -> f32 {
     let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
@@ -93,5 +89,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         // The map cannot see the receiver hide part of the emitter from itself (horizon.wgsl).
         v = min(v, light_horizon(light, s.p, geometric_normal(pixel, s.n)));
     }
-    textureStore(visibility_out, pixel, vec4<f32>(v));
+    return v;
 }

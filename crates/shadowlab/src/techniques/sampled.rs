@@ -49,6 +49,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: false,
 };
 
 /// The sample pattern parameter, shared with `cssm`.

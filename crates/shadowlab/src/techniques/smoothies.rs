@@ -38,6 +38,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: false,
 };
 
 /// The smoothie buffer's texels: two f32 bit patterns in unsigned integers, because 32-bit float

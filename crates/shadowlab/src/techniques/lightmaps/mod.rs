@@ -73,6 +73,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: Some(Compose { param: "rest", create: compose }),
+    fragment: false,
 };
 
 /// Light maps are always made around another technique (the registry creates it from `rest`).

@@ -77,6 +77,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: false,
 };
 
 /// `struct Combine` of `resolve.wgsl`.

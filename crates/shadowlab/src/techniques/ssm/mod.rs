@@ -113,6 +113,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: false,
 };
 
 /// `Ssm` in `ssm.wgsl`.

@@ -98,6 +98,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     light_types: super::ALL_LIGHTS,
     create,
     compose: None,
+    fragment: false,
 };
 
 /// `struct VolumePass` of `common.wgsl`.

@@ -12,11 +12,24 @@ function fail(message) {
   $('error').textContent = message;
 }
 
+// Milliseconds between the last frames (requestAnimationFrame's own clock), a running median.
+const frameTimes = [];
+
 function status() {
   const app = state.app;
   if (!app) return;
+  const sorted = [...frameTimes].sort((a, b) => a - b);
+  const ms = sorted.length ? sorted[sorted.length >> 1].toFixed(1) : '-';
   $('status').textContent =
-    `${app.backend()} on ${app.adapter()}\nscene ${app.scene() || '-'}, technique ${app.technique()}\nframes ${app.frames()}`;
+    `${app.backend()} on ${app.adapter()}\nscene ${app.scene() || '-'}, technique ${app.technique()}\n` +
+    `frames ${app.frames()}, ${ms} ms a frame (median of the last ${sorted.length})`;
+}
+
+// The scene's views and lights, after a scene is shown.
+function describeScene(app) {
+  const views = $('views');
+  views.replaceChildren(...app.views().map(v => new Option(v, v)));
+  $('lights').textContent = 'Lights:\n' + app.lights();
 }
 
 async function main() {
@@ -36,6 +49,10 @@ async function main() {
   state.technique = technique;
   $('note').textContent = app.note();
 
+  describeScene(app);
+  $('views').onchange = () => {
+    try { app.set_view($('views').value); } catch (e) { fail(e.message); }
+  };
   const sceneList = $('scenes');
   for (const name of scenes()) sceneList.add(new Option(name, name, false, name === scene));
   const techList = $('techniques');
@@ -49,18 +66,21 @@ async function main() {
   }
 
   sceneList.onchange = () => {
-    try { app.load_builtin(sceneList.value); $('error').textContent = ''; } catch (e) { fail(e.message); }
+    try { app.load_builtin(sceneList.value); describeScene(app); $('error').textContent = ''; } catch (e) { fail(e.message); }
   };
-  techList.onchange = () => {
+  const applySpec = spec => {
     try {
-      const fellBack = app.set_technique(techList.value);
-      state.technique = techList.value;
-      $('error').textContent = fellBack ? `hard on ${fellBack.split('\n').join(', ')} (not taken by ${techList.value})` : '';
+      const fellBack = app.set_technique(spec);
+      state.technique = spec;
+      $('error').textContent = fellBack ? `hard on ${fellBack.split('\n').join(', ')} (not taken by ${spec})` : '';
     } catch (e) { fail(e.message); }
   };
+  techList.onchange = () => applySpec(techList.value);
+  $('spec').onkeydown = e => { if (e.key === 'Enter') applySpec($('spec').value.trim()); };
   const loadFile = async file => {
     try {
       const warnings = app.load_file(file.name, new Uint8Array(await file.arrayBuffer()));
+      describeScene(app);
       $('error').textContent = warnings;
     } catch (e) { fail(e.message); }
   };
@@ -85,7 +105,13 @@ async function main() {
   canvas.onwheel = e => { e.preventDefault(); app.zoom(e.deltaY > 0 ? 1.1 : 0.9); };
 
   state.ready = true;
-  const loop = () => {
+  let last = null;
+  const loop = now => {
+    if (last !== null) {
+      frameTimes.push(now - last);
+      if (frameTimes.length > 30) frameTimes.shift();
+    }
+    last = now;
     try {
       app.frame();
       state.frames = app.frames();

@@ -143,6 +143,23 @@ async function shadows(backend, page) {
   check(m > 500, `${label}: switching none → pcss changes the image (${m} pixels)`);
   const chosen = await page.evaluate(() => window.shadowlab.app.technique());
   check(chosen === 'pcss', `${label}: the engine runs the technique chosen (${chosen})`);
+  // A technique with parameters typed into the page, then one it must refuse in words.
+  const typeSpec = async spec => {
+    await page.click('#spec', { clickCount: 3 });
+    await page.keyboard.press('Backspace');
+    await page.type('#spec', spec);
+    await page.keyboard.press('Enter');
+  };
+  await typeSpec('pcf:taps=4');
+  const typed = await page.evaluate(() => window.shadowlab.app.technique());
+  check(typed === 'pcf:taps=4', `${label}: a spec typed with parameters runs (${typed})`);
+  await typeSpec('pcf:taps=many');
+  const refused = await page.evaluate(() => [window.shadowlab.app.technique(), document.getElementById('error').textContent]);
+  check(refused[0] === 'pcf:taps=4' && refused[1].includes('taps'),
+    `${label}: a bad parameter is refused in words and the technique stays (${refused[1]})`);
+  await page.evaluate(() => { document.getElementById('error').textContent = ''; window.shadowlab.error = ''; });
+  const views = await page.evaluate(() => [...document.querySelectorAll('#views option')].map(o => o.value));
+  check(views.length > 0, `${label}: the scene's views are listed (${views.join(', ')})`);
   return { hard, pcss };
 }
 
@@ -184,15 +201,36 @@ let webgpuHard = null;
     check(refused[0] === 'box.obj' && refused[1].includes('junk.glb'),
       'WebGPU: bytes that are no scene are refused with a message, and the scene stays');
     fs.rmSync(dir, { recursive: true, force: true });
+    // The same file dropped on the drop zone (a DataTransfer built in the page).
+    await page.evaluate(text => {
+      const data = new DataTransfer();
+      data.items.add(new File([text], 'dropped.obj'));
+      document.getElementById('drop').dispatchEvent(new DragEvent('drop', { dataTransfer: data, bubbles: true, cancelable: true }));
+    }, boxObj());
+    await page.waitForFunction(() => window.shadowlab.app.scene() === 'dropped.obj', { timeout: TIMEOUT, polling: 100 }).catch(() => {});
+    const dropped = await page.evaluate(() => window.shadowlab.app.scene());
+    check(dropped === 'dropped.obj', `WebGPU: a file dropped on the page is shown (${dropped})`);
     if (args.screenshot) {
+      await page.setViewport({ width: 720, height: 660 });
+      await page.evaluate(() => { document.getElementById('spec').value = ''; });
       await page.select('#techniques', 'pcss');
       await page.select('#scenes', 'room');
       await framesAfter(page, 3);
+      await page.evaluate(() => { document.getElementById('error').textContent = ''; });
       await page.screenshot({ path: args.screenshot, type: 'png' });
       console.log(`  screenshot → ${args.screenshot}`);
     }
   }
   check(errors.length === 0, `WebGPU: no console error or panic (${errors.length})`);
+  await page.close();
+}
+
+// `auto` (the page's default) takes WebGPU where the browser offers it, as this one does.
+{
+  const { page, errors } = await open('auto', 'hard');
+  const backend = await page.evaluate(() => window.shadowlab.app && window.shadowlab.app.backend());
+  check(backend === 'WebGPU', `auto: WebGPU where the browser has it (${backend})`);
+  check(errors.length === 0, `auto: no console error or panic (${errors.length})`);
   await page.close();
 }
 

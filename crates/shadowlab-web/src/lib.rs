@@ -236,6 +236,27 @@ impl App {
         Ok(fallback.join("\n"))
     }
 
+    /// The scene's named views.
+    pub fn views(&self) -> Vec<String> {
+        self.renderer.as_ref().map_or_else(Vec::new, |r| r.scene().views.iter().map(|v| v.name.clone()).collect())
+    }
+
+    /// Looks through the scene's view `name`.
+    pub fn set_view(&mut self, name: &str) -> Result<(), JsError> {
+        let Some(renderer) = &mut self.renderer else { return Err(JsError::new("no scene yet")) };
+        let view = renderer.scene().view(name).cloned().ok_or_else(|| JsError::new(&format!("no view '{name}'")))?;
+        renderer.set_view(&view);
+        self.view = view;
+        Ok(())
+    }
+
+    /// The lights, one per line: name and type.
+    pub fn lights(&self) -> String {
+        self.renderer.as_ref().map_or_else(String::new, |r| {
+            r.scene().lights.iter().map(|l| format!("{} ({})", l.name, l.type_name())).collect::<Vec<_>>().join("\n")
+        })
+    }
+
     /// Turns the camera around its target: `dx` and `dy` in radians (yaw, pitch).
     pub fn orbit(&mut self, dx: f32, dy: f32) {
         let offset = self.view.position - self.view.target;

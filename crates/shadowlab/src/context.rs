@@ -227,20 +227,8 @@ impl Shared {
         defines: &[&str],
     ) -> wgpu::ComputePipeline {
         self.compute_pipeline(key, || {
-            let device = &self.gpu.device;
-            let mut all: Vec<&str> = defines.to_vec();
-            if self.hardware_compare {
-                all.push("HARDWARE_COMPARE");
-            }
-            let module = crate::shader::module_with(device, key, source, &all);
-            let mut layouts: Vec<Option<&wgpu::BindGroupLayout>> = vec![Some(&self.resolve_layout)];
-            layouts.extend(extra.iter().map(|l| Some(*l)));
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(key),
-                bind_group_layouts: &layouts,
-                immediate_size: 0,
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            let (module, layout) = self.resolve_module(key, source, extra, defines);
+            self.gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(key),
                 layout: Some(&layout),
                 module: &module,
@@ -249,6 +237,33 @@ impl Shared {
                 cache: None,
             })
         })
+    }
+}
+
+impl Shared {
+    /// A resolve shader's module (with `defines`, and the comparison path the device takes) and
+    /// its pipeline layout: group 0 the resolve layout, then `extra`.
+    fn resolve_module(
+        &self,
+        key: &str,
+        source: &str,
+        extra: &[&wgpu::BindGroupLayout],
+        defines: &[&str],
+    ) -> (wgpu::ShaderModule, wgpu::PipelineLayout) {
+        let device = &self.gpu.device;
+        let mut all: Vec<&str> = defines.to_vec();
+        if self.hardware_compare {
+            all.push("HARDWARE_COMPARE");
+        }
+        let module = crate::shader::module_with(device, key, source, &all);
+        let mut layouts: Vec<Option<&wgpu::BindGroupLayout>> = vec![Some(&self.resolve_layout)];
+        layouts.extend(extra.iter().map(|l| Some(*l)));
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(key),
+            bind_group_layouts: &layouts,
+            immediate_size: 0,
+        });
+        (module, layout)
     }
 }
 
@@ -277,21 +292,10 @@ impl Shared {
             return ResolveProgram::Compute(self.resolve_pipeline_with(key, source, entry, extra, &[], defines));
         }
         ResolveProgram::Fragment(self.render_pipeline(&format!("{key} (fragment)"), || {
-            let device = &self.gpu.device;
             let mut all: Vec<&str> = defines.to_vec();
             all.push("FRAGMENT");
-            if self.hardware_compare {
-                all.push("HARDWARE_COMPARE");
-            }
-            let module = crate::shader::module_with(device, key, source, &all);
-            let mut layouts: Vec<Option<&wgpu::BindGroupLayout>> = vec![Some(&self.resolve_layout)];
-            layouts.extend(extra.iter().map(|l| Some(*l)));
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(key),
-                bind_group_layouts: &layouts,
-                immediate_size: 0,
-            });
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            let (module, layout) = self.resolve_module(key, source, extra, &all);
+            self.gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(key),
                 layout: Some(&layout),
                 vertex: wgpu::VertexState {

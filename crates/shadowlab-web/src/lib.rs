@@ -257,8 +257,12 @@ impl App {
         })
     }
 
-    /// Turns the camera around its target: `dx` and `dy` in radians (yaw, pitch).
+    /// Turns the camera around its target: `dx` and `dy` in radians (yaw, pitch; anything not
+    /// finite is ignored).
     pub fn orbit(&mut self, dx: f32, dy: f32) {
+        if !(dx.is_finite() && dy.is_finite()) {
+            return;
+        }
         let offset = self.view.position - self.view.target;
         let up = self.view.up.normalize_or(Vec3::Y);
         let yawed = Quat::from_axis_angle(up, -dx) * offset;

@@ -692,7 +692,9 @@ impl Shadows {
                 );
             }
         }
-        let casting = TemporaryShadows::active(&self.live);
+        // Dragged objects cast through a compute lookup (`live/temporary.rs`): without compute
+        // (WebGL2) they cast no shadow while dragged, and every cache still leaves them out.
+        let casting = self.shared.compute && TemporaryShadows::active(&self.live);
         let temporaries = self.live.temporary_states();
         for (k, s) in self.lights.iter_mut().enumerate() {
             if !casting {

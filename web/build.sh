@@ -25,8 +25,9 @@ if ! wasm-bindgen --version 2>/dev/null | grep -qx "wasm-bindgen $version"; then
     # binds the page in seconds.
     debug=""
     if [ "$profile" = dev ]; then debug="--debug"; fi
-    # (Without the caller's RUSTFLAGS: CI's -D warnings is for this workspace, not for the tool.)
-    env -u RUSTFLAGS cargo install wasm-bindgen-cli --version "$version" $debug
+    # (Without the caller's RUSTFLAGS: CI's -D warnings is for this workspace, not for the tool.
+    # --force: cargo's record of an install may outlive its binary.)
+    env -u RUSTFLAGS cargo install --force wasm-bindgen-cli --version "$version" $debug
 fi
 echo "== cargo build --profile $profile --target wasm32-unknown-unknown -p shadowlab-web"
 cargo build --profile "$profile" --target wasm32-unknown-unknown -p shadowlab-web

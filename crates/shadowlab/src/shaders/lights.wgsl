@@ -35,6 +35,21 @@ fn light_vector(l: Light, p: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(d / len, len);
 }
 
+// The angle the emitter subtends from p, from its centre to its farthest edge, in radians (0: a
+// hard light; a rectangle's half-diagonal over its distance).
+fn light_angular_radius(l: Light, p: vec3<f32>) -> f32 {
+    let kind = light_kind(l);
+    if (kind == LIGHT_DIRECTIONAL) {
+        return l.color.w;
+    }
+    var r = l.color.w;
+    if (kind == LIGHT_RECT) {
+        r = 0.5 * length(l.cone.zw);
+    }
+    let d = length(l.position.xyz - p);
+    return asin(clamp(r / max(d, 1.0e-12), 0.0, 1.0));
+}
+
 // DESIGN.md §3: the light's centre is in front of the surface, within range, inside a spot's cone
 // and in front of a one-sided rectangle.
 fn light_relevant(l: Light, p: vec3<f32>, n: vec3<f32>) -> bool {

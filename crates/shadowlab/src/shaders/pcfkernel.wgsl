@@ -56,3 +56,17 @@ fn pcf_filter(mp: MapPoint, layer: u32, radius: f32, pixel: vec2<u32>, rp: vec3<
     }
     return sum / f32(n);
 }
+
+// `pcf_filter` at surface `s` (its receiver plane and footprint), giving way to the point's own
+// texel on a facet that the light grazes (`filter_weight`).
+fn surface_filter(mp: MapPoint, layer: u32, radius: f32, pixel: vec2<u32>, s: Surface) -> f32 {
+    let w = filter_weight(pixel, s);
+    var v = 0.0;
+    if (w > 0.0) {
+        v = pcf_filter(mp, layer, radius, pixel, receiver_plane(mp, s.p, s.n), pixel_texels(mp, s, pixel));
+    }
+    if (w < 1.0) {
+        v = mix(centre_tap(mp, layer), v, w);
+    }
+    return v;
+}

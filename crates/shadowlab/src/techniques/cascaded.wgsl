@@ -18,7 +18,7 @@ fn split_visibility(i: u32, s: Surface, l: vec3<f32>, pixel: vec2<u32>) -> f32 {
         let t0 = shadow_texel_size(shadow_views[0], s.p, map_params.bias.z);
         radius = radius * t0 / max(mp.texel, 1.0e-12);
     }
-    return pcf_filter(mp, i, radius, pixel, receiver_plane(mp, s.p, s.n), pixel_texels(mp, s, pixel));
+    return surface_filter(mp, i, radius, pixel, s);
 }
 
 fn pixel_visibility(pixel: vec2<u32>) -> f32 {

@@ -9,7 +9,7 @@ fn pixel_visibility(pixel: vec2<u32>) -> f32 {
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcf_filter(mp, mp.layer, kernel_radius_texels(mp), pixel, receiver_plane(mp, s.p, s.n), pixel_texels(mp, s, pixel));
+            v = surface_filter(mp, mp.layer, kernel_radius_texels(mp), pixel, s);
         }
     }
     return v;

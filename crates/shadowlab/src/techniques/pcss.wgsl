@@ -78,13 +78,29 @@ fn pcss_visibility(mp: MapPoint, s: Surface, pixel: vec2<u32>) -> f32 {
     return v / f32(nf);
 }
 
+// The sun's angular radius, 0.27° in radians, and a little more for rounding.
+const SUN_DISK: f32 = 0.0048;
+
 fn pixel_visibility(pixel: vec2<u32>) -> f32 {
     let s = load_surface(pixel);
     var v = 1.0;
     if (s.relevant) {
         let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
         if (mp.on_map) {
-            v = pcss_visibility(mp, s, pixel);
+            // On a facet that the light grazes the point's own texel is the answer for an emitter
+            // no larger than the sun's disk (0.27°: `SUN_DISK`); under a larger one such a facet
+            // lies in real penumbrae that the filter finds (`room`'s accent lamp, 0.4–1.1° from
+            // the floor: penumbra RMSE 0.105 → 0.115 with the point's texel).
+            var w = 1.0;
+            if (light_angular_radius(light, s.p) <= SUN_DISK) {
+                w = filter_weight(pixel, s);
+            }
+            if (w > 0.0) {
+                v = pcss_visibility(mp, s, pixel);
+            }
+            if (w < 1.0) {
+                v = mix(centre_tap(mp, mp.layer), v, w);
+            }
         }
         // The map cannot see the receiver hide part of the emitter from itself (horizon.wgsl).
         v = min(v, light_horizon(light, s.p, geometric_normal(pixel, s.n)));

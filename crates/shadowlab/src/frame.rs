@@ -3,6 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
+use shadowlab_core::convex::{ConvexBody, Plane};
 use shadowlab_core::{Aabb, Light, LightKind, View};
 
 /// The camera as shaders see it (`shaders/common.wgsl`, `struct Camera`).
@@ -71,6 +72,30 @@ impl CameraUniform {
             return Footprint::Nothing;
         }
         self.footprint_of(b.corners())
+    }
+
+    /// The pixels a convex body may cover: its part inside the eye's frustum (cut by the near
+    /// plane and the four sides, each widened by 1% of the depth so that round-off never cuts a
+    /// covered pixel), projected as [`CameraUniform::footprint_of`]. Unlike projecting the whole
+    /// body, a body that reaches behind the eye (a shadow's prism running past the camera) still
+    /// gets the rectangle of what the eye sees of it.
+    pub fn footprint_of_body(&self, body: &ConvexBody) -> Footprint {
+        let eye = self.position.truncate();
+        // Relative to the eye, as the shaders reconstruct positions.
+        let mut rel = ConvexBody { faces: body.faces.iter().map(|f| f.iter().map(|&p| p - eye).collect()).collect() };
+        let m = self.inv_view_proj_rel.inverse().transpose();
+        let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
+        let wide = w * 1.01;
+        // Reversed Z (`Camera::projection`): the near plane is z = w; a little nearer the eye,
+        // where w is still the positive depth.
+        let near = w * 1.01 - z;
+        for row in [near, wide + x, wide - x, wide + y, wide - y] {
+            rel = rel.clip(&Plane { n: row.truncate(), d: row.w });
+            if rel.is_empty() {
+                return Footprint::Nothing;
+            }
+        }
+        self.footprint_of(rel.points().map(|p| p + eye))
     }
 
     /// The pixels the convex hull of `points` may cover ([`CameraUniform::footprint`]'s rules).
@@ -345,6 +370,25 @@ mod tests {
         assert_eq!(c.footprint(&Aabb::new(Vec3::new(-1.0, 0.0, 4.0), Vec3::new(1.0, 2.0, 6.0))), Footprint::Whole);
         assert_eq!(c.footprint(&Aabb::EMPTY), Footprint::Nothing);
         assert_eq!(c.footprint_of([Vec3::new(0.0, 1.0, f32::NAN)]), Footprint::Whole);
+    }
+
+    /// A body reaching behind the eye (a shadow's prism running past the camera) covers what the
+    /// eye sees of it, not the whole screen; one wholly behind the eye covers nothing.
+    #[test]
+    fn a_body_reaching_behind_the_eye_covers_only_what_the_eye_sees() {
+        let c = camera();
+        // A bar on the right of the view, from 7 m ahead of the eye (at z = 5) to 5 m behind it.
+        let bar = Aabb::new(Vec3::new(0.5, 0.9, -2.0), Vec3::new(1.0, 1.1, 10.0));
+        assert_eq!(c.footprint(&bar), Footprint::Whole, "its corners alone cannot bound it");
+        let Footprint::Rect([x, y, w, h]) = c.footprint_of_body(&ConvexBody::from_aabb(&bar)) else {
+            panic!("{:?}", c.footprint_of_body(&ConvexBody::from_aabb(&bar)))
+        };
+        // Right of the centre column (50), reaching the right edge, and the bar's far end inside.
+        assert!(x >= 49 && x + w == 100, "{:?}", [x, y, w, h]);
+        let Footprint::Rect([fx, fy, _, _]) = c.footprint_of([Vec3::new(0.75, 1.0, -2.0)]) else { panic!() };
+        assert!(fx >= x && fx < x + w && fy >= y && fy < y + h, "{:?} outside {:?}", (fx, fy), [x, y, w, h]);
+        let behind = Aabb::new(Vec3::new(-1.0, 0.0, 6.0), Vec3::new(1.0, 2.0, 9.0));
+        assert_eq!(c.footprint_of_body(&ConvexBody::from_aabb(&behind)), Footprint::Nothing);
     }
 
     #[test]

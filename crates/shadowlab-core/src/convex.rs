@@ -114,6 +114,19 @@ impl ConvexBody {
         ];
         planes.iter().fold(self.clone(), |body, p| if body.is_empty() { body } else { body.clip(p) })
     }
+
+    /// The part a reversed-Z projection `clip_from` sees (wgpu clip space: −w ≤ x, y ≤ w, the near
+    /// plane at z = w; no far plane): its four sides widened by `widen` × w and its near plane
+    /// moved `near_margin` × w towards the eye, so that round-off never cuts what it sees.
+    pub fn clip_to_view(&self, clip_from: &Mat4, widen: f32, near_margin: f32) -> Self {
+        let m = clip_from.transpose();
+        let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
+        let wide = w * (1.0 + widen);
+        let near = w * (1.0 + near_margin) - z;
+        [wide + x, wide - x, wide + y, wide - y, near].iter().fold(self.clone(), |body, row| {
+            if body.is_empty() { body } else { body.clip(&Plane { n: row.truncate(), d: row.w }) }
+        })
+    }
 }
 
 /// The point where the ray from `p` (inside `b`) along `dir` leaves the box.
@@ -145,6 +158,23 @@ pub fn directional_focus_points(view_body: &ConvexBody, scene: &Aabb, light_dir:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// With the identity as projection (w = 1) the view is |x|, |y| ≤ 1 and z ≤ 1 (the near plane,
+    /// reversed Z); the margins widen it.
+    #[test]
+    fn clipping_to_a_view_keeps_what_it_sees() {
+        let body = ConvexBody::from_aabb(&Aabb::new(Vec3::splat(-3.0), Vec3::splat(3.0)));
+        let seen = body.clip_to_view(&Mat4::IDENTITY, 0.0, 0.0);
+        let b = seen.points().fold(Aabb::EMPTY, |b, p| b.union(&Aabb::new(p, p)));
+        assert!((b.min - Vec3::new(-1.0, -1.0, -3.0)).abs().max_element() < 1e-6, "{b:?}");
+        assert!((b.max - Vec3::new(1.0, 1.0, 1.0)).abs().max_element() < 1e-6, "{b:?}");
+        let wider = body.clip_to_view(&Mat4::IDENTITY, 0.5, 0.25);
+        let b = wider.points().fold(Aabb::EMPTY, |b, p| b.union(&Aabb::new(p, p)));
+        assert!((b.max - Vec3::new(1.5, 1.5, 1.25)).abs().max_element() < 1e-6, "{b:?}");
+        // Wholly behind the near plane: nothing.
+        let behind = ConvexBody::from_aabb(&Aabb::new(Vec3::new(0.0, 0.0, 2.0), Vec3::splat(3.0)));
+        assert!(behind.clip_to_view(&Mat4::IDENTITY, 0.0, 0.0).is_empty());
+    }
     use crate::camera::View;
 
     fn inside_convex_hull_of_box(p: Vec3, b: &Aabb) -> bool {

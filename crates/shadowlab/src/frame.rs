@@ -3,7 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
-use shadowlab_core::convex::{ConvexBody, Plane};
+use shadowlab_core::convex::ConvexBody;
 use shadowlab_core::{Aabb, Light, LightKind, View};
 
 /// The camera as shaders see it (`shaders/common.wgsl`, `struct Camera`).
@@ -82,20 +82,13 @@ impl CameraUniform {
     pub fn footprint_of_body(&self, body: &ConvexBody) -> Footprint {
         let eye = self.position.truncate();
         // Relative to the eye, as the shaders reconstruct positions.
-        let mut rel = ConvexBody { faces: body.faces.iter().map(|f| f.iter().map(|&p| p - eye).collect()).collect() };
-        let m = self.inv_view_proj_rel.inverse().transpose();
-        let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
-        let wide = w * 1.01;
-        // Reversed Z (`Camera::projection`): the near plane is z = w; a little nearer the eye,
-        // where w is still the positive depth.
-        let near = w * 1.01 - z;
-        for row in [near, wide + x, wide - x, wide + y, wide - y] {
-            rel = rel.clip(&Plane { n: row.truncate(), d: row.w });
-            if rel.is_empty() {
-                return Footprint::Nothing;
-            }
+        let rel = ConvexBody { faces: body.faces.iter().map(|f| f.iter().map(|&p| p - eye).collect()).collect() };
+        // (`Camera::projection` is reversed Z.)
+        let seen = rel.clip_to_view(&self.inv_view_proj_rel.inverse(), 0.01, 0.01);
+        if seen.is_empty() {
+            return Footprint::Nothing;
         }
-        self.footprint_of(rel.points().map(|p| p + eye))
+        self.footprint_of(seen.points().map(|p| p + eye))
     }
 
     /// The pixels the convex hull of `points` may cover ([`CameraUniform::footprint`]'s rules).

@@ -11,7 +11,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
-use shadowlab_core::convex::{ConvexBody, Plane};
+use shadowlab_core::convex::ConvexBody;
 use shadowlab_core::lightspace::{ShadowView, light_frusta};
 use shadowlab_core::{Aabb, Mobility};
 
@@ -180,17 +180,10 @@ impl TemporaryShadows {
 /// 307 200 pixels to 161 759, the drag frame ÷ still frame from 2.15 to 1.97; 128 × 96: 1.89 and
 /// 1.93 → 1.83 and 1.81, one run each alternated).
 fn shadow_footprint(camera: &CameraUniform, view: &ShadowView, size: u32, receivers: &Aabb) -> Footprint {
-    let m = view.view_projection.transpose();
-    let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
-    let wide = w * (1.0 + 4.0 / size as f32);
-    // Reversed Z: the near plane is z = w; a hair beyond it for round-off.
-    let near = w * (1.0 + 1e-4) - z;
-    let mut body = ConvexBody::from_aabb(receivers);
-    for row in [wide + x, wide - x, wide + y, wide - y, near] {
-        body = body.clip(&Plane { n: row.truncate(), d: row.w });
-        if body.is_empty() {
-            return Footprint::Nothing;
-        }
+    // Two texels wider than the window; the near plane a hair beyond for round-off (reversed Z).
+    let body = ConvexBody::from_aabb(receivers).clip_to_view(&view.view_projection, 4.0 / size as f32, 1e-4);
+    if body.is_empty() {
+        return Footprint::Nothing;
     }
     camera.footprint_of_body(&body)
 }

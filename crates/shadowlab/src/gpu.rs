@@ -167,7 +167,26 @@ impl Gpu {
                 (_, false) => 2,
             }
         };
-        adapters.into_iter().min_by_key(rank).ok_or(GpuError::NoAdapter {
+        let best = adapters.into_iter().min_by_key(rank);
+        if let Some(cpu) = best.as_ref().map(wgpu::Adapter::get_info).filter(|i| i.device_type == wgpu::DeviceType::Cpu)
+        {
+            // wgpu checks every indirect dispatch's arguments with a compute pass of its own
+            // (`InstanceFlags::VALIDATION_INDIRECT_CALL`): on llvmpipe about 25 ms each, which
+            // took `ssm`'s listed pixels from 20 to 70 ms at 128². shadowlab writes its indirect
+            // arguments itself, bounded (workgroups ≤ 65 535, draws within the store), so on a CPU
+            // adapter, where nothing can hang a GPU, it opens the same adapter without the check.
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = backends;
+            desc.flags.remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+            let unchecked = wgpu::Instance::new(desc).enumerate_adapters(backends).await;
+            if let Some(same) = unchecked.into_iter().find(|a| {
+                let i = a.get_info();
+                (i.name.as_str(), i.backend, i.device_type) == (cpu.name.as_str(), cpu.backend, cpu.device_type)
+            }) {
+                return Ok(same);
+            }
+        }
+        best.ok_or(GpuError::NoAdapter {
             wanted: match choice {
                 BackendChoice::Auto => "GPU, Vulkan or GL",
                 BackendChoice::Vulkan => "Vulkan",

@@ -8,6 +8,12 @@
 
 struct Work {
     count: atomic<u32>,
+    heavy: atomic<u32>,
+};
+
+// The head of ssm.wgsl's uniform (its fifth vec4, `extra`: w, the front's pixels per invocation).
+struct SsmHead {
+    vectors: array<vec4<f32>, 5>,
 };
 
 struct Level {
@@ -17,16 +23,24 @@ struct Level {
     src: vec4<u32>,
 };
 
+@group(2) @binding(0) var<uniform> ssm_head: SsmHead;
 @group(2) @binding(2) var<storage, read_write> vbuf: array<vec2<f32>>;
 @group(2) @binding(3) var<storage, read_write> work: Work;
 @group(3) @binding(0) var<uniform> level: Level;
 @group(3) @binding(1) var<storage, read_write> args: array<u32>;
 
+// The indirect dispatches of ssm.wgsl's `visibility` (the front of the list, `extra.w` pixels to
+// an invocation) and `heavy` (the back, one each), 64 invocations to a workgroup and at most
+// 65 535 workgroups (the least `max_compute_workgroups_per_dimension` wgpu allows).
 @compute @workgroup_size(1)
 fn dispatch_args() {
-    args[0] = (atomicLoad(&work.count) + 63u) / 64u;
+    let per = 64u * max(u32(ssm_head.vectors[4].w), 1u);
+    args[0] = min((atomicLoad(&work.count) + per - 1u) / per, 65535u);
     args[1] = 1u;
     args[2] = 1u;
+    args[3] = min((atomicLoad(&work.heavy) + 63u) / 64u, 65535u);
+    args[4] = 1u;
+    args[5] = 1u;
 }
 
 fn at(l: vec4<u32>, x: u32, y: u32) -> vec2<f32> {

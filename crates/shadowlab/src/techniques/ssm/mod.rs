@@ -53,9 +53,20 @@ use crate::timing::PassKind;
 /// What `show` can put in the visibility layer instead of V (for analysis).
 const SHOW: [&str; 6] = ["visibility", "class", "level", "kernel", "contour", "horizon"];
 
-/// Workgroups (of 64) of the visibility pass on CPU adapters, each invocation looping over the list:
-/// enough to keep every core busy, few enough that invocations past the list's end cost nothing.
-const CPU_GROUPS: u32 = 32;
+/// Loop iterations an invocation may make on a CPU adapter (`ssm.wgsl`, `loop_budget`): llvmpipe
+/// ends every loop once the invocations running together have made 65 535 in all (Mesa gallivm,
+/// `LP_MAX_TGSI_LOOP_ITERATIONS`), and cuts the contour short without a word; a tenth is kept
+/// spare. Pixels within [`LIGHT_PIXEL_LOOPS`] are computed several to an invocation, within the
+/// budget; the others one to an invocation, at a coarser level where even that would exceed it.
+const CPU_LOOP_BUDGET: u32 = 60_000;
+
+/// The most loop iterations (`ssm.wgsl`, `pixel_loops`) of a pixel computed several to an
+/// invocation on a CPU adapter: a kernel of about 40 samples at the level used, or two blended of
+/// about 28 (with the defaults most penumbra pixels are below), so that an invocation takes 9.
+const LIGHT_PIXEL_LOOPS: u32 = 6_000;
+
+/// Pixels per invocation with `dispatch=direct` on an adapter without a loop budget (a GPU).
+const GPU_DIRECT_PIXELS: u32 = 8;
 
 /// Pyramid levels the uniform has room for (maps up to 2^15 texels wide).
 const MAX_LEVELS: usize = 16;
@@ -101,7 +112,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
             "dispatch",
             "auto",
             &["auto", "indirect", "direct"],
-            "listed pixels: an indirect dispatch of their count, or a direct one looping over the list (auto: direct on CPU adapters)",
+            "listed pixels per invocation of an indirect dispatch: indirect one, direct several (on CPU adapters as many as their loop budget holds, else 8); auto: several on CPU adapters",
         ),
         ParamDef::choice(
             "show",
@@ -182,6 +193,7 @@ struct Pipelines {
     classify: wgpu::ComputePipeline,
     args: wgpu::ComputePipeline,
     visibility: wgpu::ComputePipeline,
+    heavy: wgpu::ComputePipeline,
     pull: wgpu::ComputePipeline,
     push: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
@@ -198,10 +210,8 @@ struct Ssm {
     triangles: u64,
     /// Pyramid levels reduced by the last frame.
     reduced: u32,
-    /// The listed pixels are dispatched indirectly (their count from the GPU), except on CPU adapters,
-    /// where wgpu's validation of indirect arguments cost 20 ms a frame on llvmpipe: there a direct
-    /// dispatch of [`CPU_GROUPS`] workgroups loops over the list.
-    indirect: bool,
+    /// Whether the adapter ends loops past a budget ([`CPU_LOOP_BUDGET`]: CPU adapters).
+    budgeted: bool,
 }
 
 fn own_layout(shared: &Shared) -> wgpu::BindGroupLayout {
@@ -244,6 +254,7 @@ fn pipelines(shared: &Shared) -> Pipelines {
         edges: main("edges"),
         classify: main("classify"),
         visibility: main("visibility"),
+        heavy: main("heavy"),
         args: filled("dispatch_args"),
         pull: filled("pull"),
         push: filled("push"),
@@ -271,10 +282,13 @@ fn create(
         limits: [params.int("iterations") as f32, params.float("max_kernel") as f32, 0.0, 0.0],
         // Discontinuities force exact pixels as far as the pattern spaces them.
         screen: [DEPTH_STEP, NORMAL_COS, pattern as f32, show as f32],
-        extra: [0.0, params.float("plane_reach") as f32, 0.0, 0.0],
+        extra: [0.0, params.float("plane_reach") as f32, 0.0, 1.0],
         levels: [[0; 4]; MAX_LEVELS],
         inv: [[[0.0; 4]; 4]; MAX_VIEWS],
     };
+    let budgeted = shared.gpu.adapter.device_type == "cpu";
+    let mut values = values;
+    values.extra = per_invocation(&values, params.choice("dispatch"), budgeted);
     let uniform = crate::util::uniform_buffer(device, "ssm", bytemuck::bytes_of(&values));
     Ok(Box::new(Ssm {
         params: params.clone(),
@@ -286,12 +300,30 @@ fn create(
         screen: None,
         triangles: 0,
         reduced: 0,
-        indirect: match params.choice("dispatch") {
-            "indirect" => true,
-            "direct" => false,
-            _ => shared.gpu.adapter.device_type != "cpu",
-        },
+        budgeted,
     }))
+}
+
+/// `ssm.wgsl`'s `setup_loops` and `ROUND_LOOPS`.
+fn setup_loops(iterations: f32) -> u32 {
+    10 * (iterations as u32 + 3) + 20 + 8
+}
+
+/// The uniform's `extra` with its budget terms: x, the most loops of a pixel computed several to
+/// an invocation; z, the loop budget (0: none); w, pixels per invocation at the front of the list.
+/// `dispatch=indirect` takes one per invocation; `auto` several on CPU adapters only, as many as
+/// the budget holds at [`LIGHT_PIXEL_LOOPS`] each with their `setup`; `direct` several anywhere.
+fn per_invocation(v: &SsmUniform, dispatch: &str, budgeted: bool) -> [f32; 4] {
+    let budget = if budgeted { CPU_LOOP_BUDGET } else { 0 };
+    let several =
+        if budgeted { CPU_LOOP_BUDGET / (LIGHT_PIXEL_LOOPS + setup_loops(v.limits[0])) } else { GPU_DIRECT_PIXELS };
+    let per = match dispatch {
+        "indirect" => 1,
+        "direct" => several,
+        _ if budgeted => several,
+        _ => 1,
+    };
+    [LIGHT_PIXEL_LOOPS as f32, v.extra[1], budget as f32, per.max(1) as f32]
 }
 
 fn level_group(shared: &Shared, label: &str, value: LevelUniform, target: &wgpu::Buffer) -> wgpu::BindGroup {
@@ -360,10 +392,12 @@ impl Screen {
         }
         let pixels = u64::from(width) * u64::from(height);
         let vbuf = storage(device, "ssm v-buffer", u64::from(offset) * 8, wgpu::BufferUsages::empty());
+        // The front of the list from slot 0 up, the heavy pixels from the last slot down.
         let list = storage(device, "ssm list", pixels * 4, wgpu::BufferUsages::empty());
         let flags = storage(device, "ssm discontinuities", pixels * 4, wgpu::BufferUsages::empty());
         let work = storage(device, "ssm work", 16, wgpu::BufferUsages::empty());
-        let args = storage(device, "ssm dispatch", 16, wgpu::BufferUsages::INDIRECT);
+        // Two indirect dispatches: `visibility`'s at 0, `heavy`'s at 12.
+        let args = storage(device, "ssm dispatch", 32, wgpu::BufferUsages::INDIRECT);
         let own = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("ssm"),
             layout: &own_layout(shared),
@@ -496,11 +530,9 @@ impl ShadowTechnique for Ssm {
             }
             pass.set_pipeline(&p.classify);
             pass.dispatch_workgroups(gx, gy, 1);
-            if self.indirect {
-                pass.set_bind_group(3, Some(&screen.finish), &[]);
-                pass.set_pipeline(&p.args);
-                pass.dispatch_workgroups(1, 1, 1);
-            }
+            pass.set_bind_group(3, Some(&screen.finish), &[]);
+            pass.set_pipeline(&p.args);
+            pass.dispatch_workgroups(1, 1, 1);
         }
         {
             // The listed pixels' visibility: the back-projection proper.
@@ -509,14 +541,14 @@ impl ShadowTechnique for Ssm {
                 label: Some("ssm visibility"),
                 timestamp_writes: timestamps,
             });
-            pass.set_pipeline(&p.visibility);
             pass.set_bind_group(0, Some(&group0), &[]);
             pass.set_bind_group(1, Some(&lookup), &[]);
             pass.set_bind_group(2, Some(&screen.own), &[]);
-            if self.indirect {
-                pass.dispatch_workgroups_indirect(&screen.args, 0);
-            } else {
-                pass.dispatch_workgroups((ctx.surface.width * ctx.surface.height).div_ceil(64).min(CPU_GROUPS), 1, 1);
+            pass.set_pipeline(&p.visibility);
+            pass.dispatch_workgroups_indirect(&screen.args, 0);
+            if self.budgeted {
+                pass.set_pipeline(&p.heavy);
+                pass.dispatch_workgroups_indirect(&screen.args, 12);
             }
         }
         let timestamps = ctx.timer.compute_pass(&ctx.gpu.device, PassKind::Visibility);
@@ -590,3 +622,49 @@ impl ShadowTechnique for Ssm {
 
 // The uniform's layout is WGSL's: five vec4s, 16 level entries, 6 matrices.
 const _: () = assert!(std::mem::size_of::<SsmUniform>() == 5 * 16 + MAX_LEVELS * 16 + MAX_VIEWS * 64);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `ssm.wgsl`'s bound on the loop iterations of `visibility_at` for a kernel `width` samples of
+    /// its level wide (`level_loops`: tiles of 4 × 4 blocks, 35 per tile, 2 per row of tiles).
+    fn level_loops(width: f32) -> u32 {
+        let tiles = ((width + 2.0) / 4.0).clamp(0.0, 4096.0) as u32 + 2;
+        tiles * (tiles * 35 + 2) + 2
+    }
+
+    fn uniform(iterations: f32) -> SsmUniform {
+        SsmUniform {
+            contour: [0.0, 1.0, 8.0, 0.05],
+            adapt: [1.0, 1.0, 16.0, 4.0],
+            limits: [iterations, 256.0, 10.0, 0.0],
+            screen: [0.0; 4],
+            extra: [0.0, 2.0, 0.0, 1.0],
+            levels: [[0; 4]; MAX_LEVELS],
+            inv: [[[0.0; 4]; 4]; MAX_VIEWS],
+        }
+    }
+
+    /// On a CPU adapter the pixels one invocation computes at the front of the list, each at its
+    /// bound with its setup and its share of the loop, stay within the budget for every
+    /// `iterations`; the defaults put several to an invocation (the point: its fixed cost shared).
+    /// `indirect` keeps one everywhere; GPUs have no budget.
+    #[test]
+    fn an_invocation_stays_within_the_loop_budget() {
+        for iterations in 1..=16 {
+            let v = uniform(iterations as f32);
+            for dispatch in ["auto", "direct", "indirect"] {
+                let [light, _, budget, per] = per_invocation(&v, dispatch, true);
+                assert_eq!((light as u32, budget as u32), (LIGHT_PIXEL_LOOPS, CPU_LOOP_BUDGET));
+                let spent = per as u32 * (light as u32 + setup_loops(iterations as f32));
+                assert!(spent <= CPU_LOOP_BUDGET, "{iterations} iterations, {dispatch}: {spent}");
+            }
+            assert_eq!(per_invocation(&v, "indirect", true)[3], 1.0);
+        }
+        assert!(per_invocation(&uniform(4.0), "auto", true)[3] >= 8.0);
+        assert_eq!(per_invocation(&uniform(4.0), "auto", false), [LIGHT_PIXEL_LOOPS as f32, 2.0, 0.0, 1.0]);
+        // A 256-texel kernel without LOD is far past the front's bound: one to an invocation.
+        assert!(level_loops(256.0) > LIGHT_PIXEL_LOOPS);
+    }
+}

@@ -29,7 +29,9 @@ struct Ssm {
     // (pixels) discontinuities force exact computation; w: what to show (0: visibility, 1: the
     // class, 2: the level, 3: the kernel's width, 4: the contour's fraction, 5: the horizon's).
     screen: vec4<f32>,
-    // y: how far (level-0 texels) the receiver's plane is extrapolated.
+    // x: the most loop iterations of a pixel listed at the front (`loop_budget`); y: how far
+    // (level-0 texels) the receiver's plane is extrapolated; z: the adapter's loop budget per
+    // invocation (0: none); w: the front's pixels per invocation.
     extra: vec4<f32>,
     // Per pyramid level ≥ 1: x: offset in a view's block, y: side (texels).
     levels: array<vec4<u32>, 16>,
@@ -38,8 +40,10 @@ struct Ssm {
 };
 
 struct Work {
-    // Penumbra pixels appended by `classify`.
+    // Penumbra pixels `classify` listed at the front of the list (those within `extra.x` loop
+    // iterations), and from its back (`heavy`: the others, where the adapter has a loop budget).
     count: atomic<u32>,
+    heavy: atomic<u32>,
 };
 
 @group(2) @binding(0) var<uniform> ssm: Ssm;
@@ -274,6 +278,19 @@ fn square_rim(u: vec2<f32>) -> vec2<f32> {
     return u / max(max(abs(u.x), abs(u.y)), 1.0e-30);
 }
 
+// Corner i of the square, when it lies strictly inside the wedge from a to b: the first such
+// corner, then the second.
+fn take_corner(i: i32, a: vec2<f32>, b: vec2<f32>, first: ptr<function, i32>, second: ptr<function, i32>) {
+    let c = square_corner(i);
+    if (cross2(a, c) > 0.0 && cross2(c, b) > 0.0) {
+        if (*first < 0) {
+            *first = i;
+        } else {
+            *second = i;
+        }
+    }
+}
+
 // Area of the domain inside the wedge from the centre between the directions of a and b (< π).
 fn sector_area(disk: bool, a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
     var a = a_in;
@@ -286,18 +303,13 @@ fn sector_area(disk: bool, a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
         return 0.5 * atan2(abs(cross2(a, b)), dot(a, b));
     }
     // A fan over the rim: a's rim point, the corners inside the wedge in turn, b's rim point.
+    // (Four tests written out: loops count against CPU adapters' budget, `loop_budget`.)
     var first = -1;
     var second = -1;
-    for (var i = 0; i < 4; i = i + 1) {
-        let c = square_corner(i);
-        if (cross2(a, c) > 0.0 && cross2(c, b) > 0.0) {
-            if (first < 0) {
-                first = i;
-            } else {
-                second = i;
-            }
-        }
-    }
+    take_corner(0, a, b, &first, &second);
+    take_corner(1, a, b, &first, &second);
+    take_corner(2, a, b, &first, &second);
+    take_corner(3, a, b, &first, &second);
     // Corners 3 and 0 are in turn the other way round.
     if (first == 0 && second == 3) {
         first = 3;
@@ -376,46 +388,43 @@ fn block_edges(mask: u32, t: f32) -> BlockEdges {
     if (mask == 0u || mask == 15u) {
         return e;
     }
-    for (var i = 0u; i < 4u; i = i + 1u) {
-        // Bit k of r: sample i + k occludes.
-        let r = ((mask >> i) | (mask << (4u - i))) & 15u;
-        let i1 = (i + 1u) & 3u;
-        let i2 = (i + 2u) & 3u;
-        let i3 = (i + 3u) & 3u;
-        if (r == 1u || r == 5u) {
-            // One occluder at i (and its diagonal twin for 0x5, 0xA).
-            e.a0 = crossing(i, i1, t);
-            e.b0 = crossing(i, i3, t);
-            e.ha0 = i;
-            e.hb0 = i;
-            e.count = 1u;
-            if (r == 5u) {
-                e.a1 = -e.a0;
-                e.b1 = -e.b0;
-                e.ha1 = i2;
-                e.hb1 = i2;
-                e.count = 2u;
-            }
-            break;
+    // The rotation i that brings the mask to one of the cases below (the first of 0…3 that
+    // does), two bits per mask; looked up rather than searched, since loops count against CPU
+    // adapters' budget (`loop_budget`).
+    let i = (0x069fd210u >> (2u * mask)) & 3u;
+    // Bit k of r: sample i + k occludes.
+    let r = ((mask >> i) | (mask << (4u - i))) & 15u;
+    let i1 = (i + 1u) & 3u;
+    let i2 = (i + 2u) & 3u;
+    let i3 = (i + 3u) & 3u;
+    if (r == 1u || r == 5u) {
+        // One occluder at i (and its diagonal twin for 0x5, 0xA).
+        e.a0 = crossing(i, i1, t);
+        e.b0 = crossing(i, i3, t);
+        e.ha0 = i;
+        e.hb0 = i;
+        e.count = 1u;
+        if (r == 5u) {
+            e.a1 = -e.a0;
+            e.b1 = -e.b0;
+            e.ha1 = i2;
+            e.hb1 = i2;
+            e.count = 2u;
         }
-        if (r == 3u) {
-            // Occluders i and i + 1.
-            e.a0 = crossing(i1, i2, t);
-            e.b0 = crossing(i, i3, t);
-            e.ha0 = i1;
-            e.hb0 = i;
-            e.count = 1u;
-            break;
-        }
-        if (r == 14u) {
-            // Background at i only.
-            e.a0 = crossing(i3, i, t);
-            e.b0 = crossing(i1, i, t);
-            e.ha0 = i3;
-            e.hb0 = i1;
-            e.count = 1u;
-            break;
-        }
+    } else if (r == 3u) {
+        // Occluders i and i + 1.
+        e.a0 = crossing(i1, i2, t);
+        e.b0 = crossing(i, i3, t);
+        e.ha0 = i1;
+        e.hb0 = i;
+        e.count = 1u;
+    } else if (r == 14u) {
+        // Background at i only.
+        e.a0 = crossing(i3, i, t);
+        e.b0 = crossing(i1, i, t);
+        e.ha0 = i3;
+        e.hb0 = i1;
+        e.count = 1u;
     }
     // A single occluder's corner (and a diagonal pair's) collapses to a point at t = 1. The
     // three-occluder edge at t = −1 is a point on the map too, but its ends hold two depths: it
@@ -635,6 +644,45 @@ fn visibility_at(px: Pixel, level: u32) -> f32 {
     return clamp(v / area, 0.0, 1.0);
 }
 
+// ---- the loop budget of CPU adapters ----
+
+// llvmpipe (lavapipe, the CPU rasterisers of Mesa) ends every loop of an invocation once the
+// invocations running together have made 65 535 loop iterations in all, counting every loop of the
+// shader (Mesa gallivm, LP_MAX_TGSI_LOOP_ITERATIONS); loops with a constant count are unrolled and
+// do not count. Past it the contour is cut short without a word. So where the uniform carries a
+// budget, a pixel's count is bounded from above (`pixel_loops`), levels are
+// raised where one pixel alone would exceed it, and `classify` lists the pixels within `extra.x`
+// at the front of the list, which `visibility` computes `extra.w` to an invocation (a share of the
+// budget each: an invocation's fixed cost is large on a CPU), and the others at its back, which
+// `heavy` computes one to an invocation.
+fn loop_budget() -> u32 {
+    return u32(ssm.extra.z);
+}
+
+// An upper bound on the loop iterations of `setup`: its kernel-tightening steps and, for each and
+// three more, `hsm_bounds`' ≤ 2 × 2 texels (9 with the loops' exits); the level raising (17).
+fn setup_loops() -> u32 {
+    return 10u * (u32(ssm.limits.x) + 3u) + 20u;
+}
+
+// A pixel's share of loops outside `setup` and `visibility_at` (the pass's own loop among them).
+const ROUND_LOOPS: u32 = 8u;
+
+// An upper bound on the loop iterations of `visibility_at(px, level)` for a kernel of half-width
+// `half` (level-0 texels): tiles of 4 × 4 blocks per axis, each counting at most 35 (its own
+// iteration, `uniform_samples`' ≤ 2 × 2 texels with their loops' exits: 9, ≤ 4 rows: 5, their
+// ≤ 4 blocks each: 20), and each row of tiles 2 more.
+fn level_loops(half: f32, level: u32) -> u32 {
+    let hk = half / f32(1u << level);
+    let tiles = u32(min((2.0 * hk + 2.0) / 4.0, 4096.0)) + 2u;
+    return tiles * (tiles * 35u + 2u) + 2u;
+}
+
+// An upper bound on the loop iterations of a listed pixel's `visibility_at` calls.
+fn pixel_loops(s: Setup) -> u32 {
+    return level_loops(s.px.half, s.lod) + select(0u, level_loops(s.px.half, s.other), s.w > 0.0);
+}
+
 // ---- per pixel: kernel, level, class ----
 
 // Half-width (level-0 texels) of the map region that can hold an occluder of a receiver at axis
@@ -759,6 +807,19 @@ fn setup(pixel: vec2<u32>) -> Setup {
         half = min(half, 0.5 * ssm.limits.y);
     }
     px.half = half;
+    let budget = loop_budget();
+    if (budget > 0u) {
+        // An adapter that ends loops past a budget (`loop_budget`) would cut this pixel's contour
+        // short; coarser levels, whose kernels hold fewer samples, are used where it would.
+        let room = budget - min(budget, setup_loops() + ROUND_LOOPS);
+        for (var k = 0u; k < 16u; k = k + 1u) {
+            if (level_loops(half, lod) + select(0u, level_loops(half, other), w > 0.0) <= room || min(lod, other) >= top) {
+                break;
+            }
+            lod = min(lod + 1u, top);
+            other = min(other + 1u, top);
+        }
+    }
     // Lit or umbra over the kernel grown by a texel of the coarser level used (its blocks).
     let margin = f32(1u << max(lod, other));
     let reach = half + margin;
@@ -911,18 +972,24 @@ fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     if (selected) {
         vbuf[i] = vec2<f32>(0.0, 1.0);
-        let slot = atomicAdd(&work.count, 1u);
-        list[slot] = i;
+        if (loop_budget() > 0u && pixel_loops(s) > u32(ssm.extra.x)) {
+            list[last_slot() - atomicAdd(&work.heavy, 1u)] = i;
+        } else {
+            list[atomicAdd(&work.count, 1u)] = i;
+        }
     } else {
         vbuf[i] = vec2<f32>(0.0, 0.0);
     }
 }
 
-// Pixel `i` of the list.
-fn listed(i: u32) {
+fn pixel_at(i: u32) -> vec2<u32> {
     let width = u32(camera.size.x);
-    let pixel = vec2<u32>(i % width, i / width);
-    var s = setup(pixel);
+    return vec2<u32>(i % width, i / width);
+}
+
+// Listed pixel `i`, set up as `setup_in`.
+fn listed(setup_in: Setup, i: u32) {
+    var s = setup_in;
     s.px.flip = orientation(s.px);
     if (ssm.screen.w == 2.0) {
         // Analysis: the continuous level used, an eighth per level.
@@ -952,13 +1019,34 @@ fn listed(i: u32) {
     vbuf[i] = vec2<f32>(min(v, s.horizon), 1.0);
 }
 
-// One invocation per listed pixel (an indirect dispatch), or a grid-stride loop over the list where
-// a direct dispatch of fewer invocations is cheaper (CPU adapters).
+// The list's last slot (it has one per pixel; `heavy` pixels are listed from there down).
+fn last_slot() -> u32 {
+    return u32(camera.size.x) * u32(camera.size.y) - 1u;
+}
+
+// The pixels listed at the front (an indirect dispatch, fill.wgsl's `dispatch_args`): on CPU
+// adapters `extra.w` to an invocation, as many as the loop budget holds; on GPUs one, or more
+// where the list outgrows the most workgroups a dispatch may have (65 535).
 @compute @workgroup_size(64)
 fn visibility(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let count = atomicLoad(&work.count);
     let stride = groups.x * 64u;
-    for (var k = id.x; k < count; k = k + stride) {
-        listed(list[k]);
+    // (A CPU adapter's output of over 65 535 × 64 × extra.w pixels, 37 million at the defaults,
+    // would leave some uncomputed.)
+    let per = select(0xffffffffu, max(u32(ssm.extra.w), 1u), loop_budget() > 0u);
+    var j = 0u;
+    for (var k = id.x; k < count && j < per; k = k + stride) {
+        let i = list[k];
+        listed(setup(pixel_at(i)), i);
+        j = j + 1u;
+    }
+}
+
+// The pixels listed at the back (CPU adapters: more loops than `extra.x`), one to an invocation.
+@compute @workgroup_size(64)
+fn heavy(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x < atomicLoad(&work.heavy)) {
+        let i = list[last_slot() - id.x];
+        listed(setup(pixel_at(i)), i);
     }
 }

@@ -7,8 +7,9 @@
 // Plain z-pass starts at 0, so the casters its plan lists as reaching the near pyramid are kept
 // whatever the surface (flag KEEP, `plan::CullInputs::push_sample`; none when `auto` chose
 // z-pass), and a robust z-pass, whose start was counted at the eye, is not culled here at all.
-// One workgroup per light sample bounds the region's relevant surface points (the only pixels
-// whose resolve reads the mask) and tests that box against each caster's shadow hulls
+// `region_bounds` (one invocation per pixel) bounds the region's relevant surface points (the only
+// pixels whose resolve reads the mask); then one workgroup per light sample (`cull`) tests that box
+// against each caster's shadow hulls
 // (shadowlab_core::volumes::shadow_hull of its box and of its triangles' parts), writing the
 // sample's indirect draws with the casters that miss it set to no instance. The CPU's own test
 // (`plan::region_casters`) can only use the region's frustum; this one sees the surface that is
@@ -60,11 +61,12 @@ const KEEP: u32 = 1u;
 @group(1) @binding(2) var<storage, read> casters: array<CullCaster>;
 @group(1) @binding(3) var<storage, read> draws_in: array<u32>;
 @group(1) @binding(4) var<storage, read_write> draws_out: array<u32>;
+// The region's surface points: 0–2 the complement of the smallest coordinate's `ordered`, 3–5 the
+// largest's, 6 the farthest distance from the eye; zero (cleared) when there is none. Every
+// `ordered` of a number is above zero, so the maxima start from the cleared buffer.
+@group(1) @binding(5) var<storage, read_write> bounds: array<atomic<u32>, 8>;
 
 const GROUP: u32 = 64u;
-var<workgroup> box_min: array<atomic<u32>, 3>;
-var<workgroup> box_max: array<atomic<u32>, 3>;
-var<workgroup> reach: atomic<u32>;
 
 // An order-preserving map of f32 onto u32 (negative values reversed below the positive ones).
 fn ordered(x: f32) -> u32 {
@@ -88,46 +90,43 @@ fn meets(hull: u32, c: vec3<f32>, h: vec3<f32>) -> bool {
     return true;
 }
 
+// One invocation per pixel of the region: a pass over the pixels of its own, rather than loops in
+// `cull`'s workgroups, since CPU adapters end an invocation's loops past a budget (llvmpipe:
+// 65 535 iterations; ssm.wgsl, `loop_budget`), which a large region with light-map receivers to
+// test per pixel would pass, leaving the box too small and culling casters that count.
+@compute @workgroup_size(8, 8)
+fn region_bounds(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = region.rect.zw;
+    if (id.x >= size.x || id.y >= size.y) {
+        return;
+    }
+    let pixel = region.rect.xy + id.xy;
+    if (!in_frame(pixel)) {
+        return;
+    }
+    let s = load_surface(pixel);
+    if (!s.relevant || covered(s)) {
+        return;
+    }
+    for (var a = 0u; a < 3u; a = a + 1u) {
+        atomicMax(&bounds[a], ~ordered(s.p[a]));
+        atomicMax(&bounds[3u + a], ordered(s.p[a]));
+    }
+    atomicMax(&bounds[6], ordered(distance(s.p, camera.position.xyz)));
+}
+
 @compute @workgroup_size(64)
 fn cull(@builtin(local_invocation_index) t: u32, @builtin(workgroup_id) wg: vec3<u32>) {
-    if (t < 3u) {
-        atomicStore(&box_min[t], 0xffffffffu);
-        atomicStore(&box_max[t], 0u);
-    }
-    if (t == 0u) {
-        atomicStore(&reach, 0u);
-    }
-    workgroupBarrier();
-    let size = region.rect.zw;
-    let pixels = size.x * size.y;
-    var far = 0.0;
-    for (var k = t; k < pixels; k = k + GROUP) {
-        let pixel = region.rect.xy + vec2<u32>(k % size.x, k / size.x);
-        if (!in_frame(pixel)) {
-            continue;
-        }
-        let s = load_surface(pixel);
-        if (!s.relevant || covered(s)) {
-            continue;
-        }
-        far = max(far, distance(s.p, camera.position.xyz));
-        for (var a = 0u; a < 3u; a = a + 1u) {
-            atomicMin(&box_min[a], ordered(s.p[a]));
-            atomicMax(&box_max[a], ordered(s.p[a]));
-        }
-    }
-    atomicMax(&reach, ordered(far));
-    workgroupBarrier();
     var lo = vec3<f32>(0.0);
     var hi = vec3<f32>(0.0);
     for (var a = 0u; a < 3u; a = a + 1u) {
-        lo[a] = unordered(atomicLoad(&box_min[a]));
-        hi[a] = unordered(atomicLoad(&box_max[a]));
+        lo[a] = unordered(~atomicLoad(&bounds[a]));
+        hi[a] = unordered(atomicLoad(&bounds[3u + a]));
     }
-    let empty = atomicLoad(&box_min[0]) == 0xffffffffu;
+    let empty = atomicLoad(&bounds[3]) == 0u;
     // The depth buffer's round-off and the reconstruction's: 1e-4 of the distance to the eye on
     // every axis (reversed-Z f32 depth holds about 1e-6 of it).
-    let pad = vec3<f32>(1.0e-4 * unordered(atomicLoad(&reach)) + 1.0e-6);
+    let pad = vec3<f32>(1.0e-4 * unordered(atomicLoad(&bounds[6])) + 1.0e-6);
     let c = 0.5 * (lo + hi);
     let h = 0.5 * (hi - lo) + pad;
     let which = wg.x;

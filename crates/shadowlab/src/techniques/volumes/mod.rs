@@ -192,11 +192,13 @@ struct Cull {
     casters: Option<wgpu::Buffer>,
     /// The store's indirect draws, the casters that miss the region's surface drawing nothing.
     draws: Option<wgpu::Buffer>,
+    /// The box of the region's surface points (`cull.wgsl`, `bounds`).
+    bounds: Option<wgpu::Buffer>,
 }
 
 impl Cull {
     fn bytes(&self) -> u64 {
-        [&self.firsts, &self.hulls, &self.casters, &self.draws]
+        [&self.firsts, &self.hulls, &self.casters, &self.draws, &self.bounds]
             .iter()
             .filter_map(|b| b.as_ref())
             .map(|b| b.size())
@@ -239,9 +241,14 @@ impl Cull {
             self.draws = None;
         }
         fit(&mut self.draws, "volume culled draws", draws, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT);
-        let (Some(f), Some(h), Some(c), Some(d)) = (&self.firsts, &self.hulls, &self.casters, &self.draws) else {
+        fit(&mut self.bounds, "volume cull bounds", 32, storage);
+        let (Some(f), Some(h), Some(c), Some(d), Some(b)) =
+            (&self.firsts, &self.hulls, &self.casters, &self.draws, &self.bounds)
+        else {
             return;
         };
+        ctx.encoder.clear_buffer(b, 0, None);
+        let rect = ctx.region_rect().unwrap_or([0, 0, ctx.surface.width, ctx.surface.height]);
         let queue = &ctx.gpu.queue;
         queue.write_buffer(f, 0, firsts);
         if !hulls.is_empty() {
@@ -268,31 +275,35 @@ impl Cull {
                     }),
                 },
                 wgpu::BindGroupEntry { binding: 4, resource: d.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: b.as_entire_binding() },
             ],
         });
         let source = include_str!("cull.wgsl");
-        let pipeline = match covered {
+        let pipeline = |entry: &str| match covered {
             Some(_) => shared.resolve_pipeline_with(
-                "volumes cull covered",
+                &format!("volumes {entry} covered"),
                 source,
-                "cull",
+                entry,
                 &[&layout, &crate::context::covered_layout(shared)],
                 &[],
                 &["COVERED"],
             ),
-            None => shared.resolve_pipeline("volumes cull", source, "cull", &[&layout], &[]),
+            None => shared.resolve_pipeline(&format!("volumes {entry}"), source, entry, &[&layout], &[]),
         };
+        let (bounds, cull) = (pipeline("region_bounds"), pipeline("cull"));
         let timestamps = ctx.timer.compute_pass(device, PassKind::Shadow);
         let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("volume cull"),
             timestamp_writes: timestamps,
         });
-        pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, Some(group0), &[]);
         pass.set_bind_group(1, Some(&group), &[]);
         if let Some(c) = covered {
             pass.set_bind_group(2, Some(c.group), &[]);
         }
+        pass.set_pipeline(&bounds);
+        pass.dispatch_workgroups(rect[2].div_ceil(8), rect[3].div_ceil(8), 1);
+        pass.set_pipeline(&cull);
         pass.dispatch_workgroups(samples, 1, 1);
     }
 }
@@ -308,6 +319,7 @@ fn cull_layout(shared: &Shared) -> wgpu::BindGroupLayout {
                 storage_entry(2, c, true),
                 storage_entry(3, c, true),
                 storage_entry(4, c, false),
+                storage_entry(5, c, false),
             ],
         })
     })

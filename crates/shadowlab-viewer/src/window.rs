@@ -119,18 +119,17 @@ impl ApplicationHandler for App {
     }
 }
 
-fn open(
+/// The window's surface and an adapter that can present to it, from an instance that checks
+/// indirect calls' arguments or not.
+fn presenting_adapter(
     event_loop: &ActiveEventLoop,
-    setup: &Setup,
-    loaded: shadowlab_core::load::Loaded,
-) -> Result<Running, ViewerError> {
-    let attributes = Window::default_attributes()
-        .with_title(format!("shadowlab — {}", setup.scene))
-        .with_inner_size(winit::dpi::PhysicalSize::new(setup.width + PANEL_WIDTH, setup.height));
-    let window = Arc::new(
-        event_loop.create_window(attributes).map_err(|e| ViewerError::Other(format!("cannot open a window: {e}")))?,
-    );
-    let desc = wgpu::InstanceDescriptor::new_with_display_handle(Box::new(event_loop.owned_display_handle()));
+    window: &Arc<Window>,
+    check_indirect: bool,
+) -> Result<(wgpu::Surface<'static>, wgpu::Adapter), ViewerError> {
+    let mut desc = wgpu::InstanceDescriptor::new_with_display_handle(Box::new(event_loop.owned_display_handle()));
+    if !check_indirect {
+        desc.flags.remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+    }
     let instance = wgpu::Instance::new(desc);
     let surface = instance
         .create_surface(window.clone())
@@ -142,6 +141,27 @@ fn open(
         ..Default::default()
     }))
     .map_err(|e| ViewerError::Other(format!("no GPU can present to the window: {e}")))?;
+    Ok((surface, adapter))
+}
+
+fn open(
+    event_loop: &ActiveEventLoop,
+    setup: &Setup,
+    loaded: shadowlab_core::load::Loaded,
+) -> Result<Running, ViewerError> {
+    let attributes = Window::default_attributes()
+        .with_title(format!("shadowlab — {}", setup.scene))
+        .with_inner_size(winit::dpi::PhysicalSize::new(setup.width + PANEL_WIDTH, setup.height));
+    let window = Arc::new(
+        event_loop.create_window(attributes).map_err(|e| ViewerError::Other(format!("cannot open a window: {e}")))?,
+    );
+    let (mut surface, mut adapter) = presenting_adapter(event_loop, &window, true)?;
+    if adapter.get_info().device_type == wgpu::DeviceType::Cpu {
+        // As `Gpu::new` does: wgpu's check of each indirect dispatch costs about 25 ms on llvmpipe,
+        // and shadowlab bounds its indirect arguments itself (ARCHITECTURE.md, invariants).
+        drop((surface, adapter));
+        (surface, adapter) = presenting_adapter(event_loop, &window, false)?;
+    }
     let gpu = pollster::block_on(Gpu::open(&adapter))?;
     let caps = surface.get_capabilities(&adapter);
     // egui draws in gamma space: a non-sRGB surface shows its bytes as they are.

@@ -380,6 +380,18 @@ struct BlockEdges {
     count: u32,
 };
 
+// A block's single edge: from the crossing between occluder `ha` and sample `a_to` to the one
+// between occluder `hb` and sample `b_to`, its ends holding those occluders' depths.
+fn one_edge(ha: u32, a_to: u32, hb: u32, b_to: u32, t: f32) -> BlockEdges {
+    var e: BlockEdges;
+    e.a0 = crossing(ha, a_to, t);
+    e.b0 = crossing(hb, b_to, t);
+    e.ha0 = ha;
+    e.hb0 = hb;
+    e.count = 1u;
+    return e;
+}
+
 // The marching-squares rule of a block with occluder mask `mask` (bit i: sample i occludes): up to
 // two edges, the occluder on their left. shadowlab_core::backprojection::block_edges is the same table.
 fn block_edges(mask: u32, t: f32) -> BlockEdges {
@@ -399,11 +411,7 @@ fn block_edges(mask: u32, t: f32) -> BlockEdges {
     let i3 = (i + 3u) & 3u;
     if (r == 1u || r == 5u) {
         // One occluder at i (and its diagonal twin for 0x5, 0xA).
-        e.a0 = crossing(i, i1, t);
-        e.b0 = crossing(i, i3, t);
-        e.ha0 = i;
-        e.hb0 = i;
-        e.count = 1u;
+        e = one_edge(i, i1, i, i3, t);
         if (r == 5u) {
             e.a1 = -e.a0;
             e.b1 = -e.b0;
@@ -413,18 +421,10 @@ fn block_edges(mask: u32, t: f32) -> BlockEdges {
         }
     } else if (r == 3u) {
         // Occluders i and i + 1.
-        e.a0 = crossing(i1, i2, t);
-        e.b0 = crossing(i, i3, t);
-        e.ha0 = i1;
-        e.hb0 = i;
-        e.count = 1u;
+        e = one_edge(i1, i2, i, i3, t);
     } else if (r == 14u) {
         // Background at i only.
-        e.a0 = crossing(i3, i, t);
-        e.b0 = crossing(i1, i, t);
-        e.ha0 = i3;
-        e.hb0 = i1;
-        e.count = 1u;
+        e = one_edge(i3, i, i1, i, t);
     }
     // A single occluder's corner (and a diagonal pair's) collapses to a point at t = 1. The
     // three-occluder edge at t = −1 is a point on the map too, but its ends hold two depths: it

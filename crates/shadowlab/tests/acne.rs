@@ -12,8 +12,7 @@ use common::{gpu, reference, render};
 #[test]
 fn filtered_maps_leave_lit_slopes_lit_under_a_grazing_light() {
     let gpu = gpu();
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/dragon-grazing.toml");
-    let scene = load_scene(path.to_str().unwrap()).unwrap().scene;
+    let scene = common::scene_file("dragon-grazing.toml");
     let view = scene.view("default").unwrap().clone();
     let sun = LightId(0);
     // Measured at 96² against 64 reference samples, with each filter tap compared with the

@@ -131,8 +131,7 @@ fn sampled_converges_on_penumbra() {
 }
 
 fn bunny() -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/bunny-plane.toml");
-    load_scene(path.to_str().unwrap()).unwrap().scene
+    common::scene_file("bunny-plane.toml")
 }
 
 #[test]

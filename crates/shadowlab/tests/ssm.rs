@@ -101,8 +101,7 @@ fn adaptive_sampling_with_an_infinite_threshold_is_the_full_computation() {
 #[test]
 fn wide_kernels_stay_within_the_loop_budget() {
     let gpu = gpu();
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/bunny-plane.toml");
-    let scene = load_scene(path.to_str().unwrap()).unwrap().scene;
+    let scene = common::scene_file("bunny-plane.toml");
     let view = scene.view("azri").unwrap().clone();
     let run = |dispatch: &str| {
         let spec = format!("ssm:lod=false,adaptive=false,dispatch={dispatch}");

@@ -13,6 +13,12 @@ pub fn gpu() -> Gpu {
         .expect("no GPU adapter: install Mesa's Vulkan driver (apt-get install mesa-vulkan-drivers)")
 }
 
+/// A scene file of the repository's `scenes/` folder (`bunny-plane.toml`).
+pub fn scene_file(name: &str) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes").join(name);
+    load_scene(path.to_str().expect("a UTF-8 path")).unwrap_or_else(|e| panic!("scenes/{name}: {e}")).scene
+}
+
 pub struct Run {
     pub renderer: Renderer,
     pub surface: SurfaceBuffer,

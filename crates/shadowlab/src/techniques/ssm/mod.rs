@@ -662,6 +662,8 @@ mod tests {
             }
             assert_eq!(per_invocation(&v, "indirect", true)[3], 1.0);
         }
+        // 60 000 / (6 000 + 98) = 9 pixels at the default 4 iterations; at least 8, so that an
+        // invocation's fixed cost is shared about as the old unbounded loop shared it (8 at 128²).
         assert!(per_invocation(&uniform(4.0), "auto", true)[3] >= 8.0);
         assert_eq!(per_invocation(&uniform(4.0), "auto", false), [LIGHT_PIXEL_LOOPS as f32, 2.0, 0.0, 1.0]);
         // A 256-texel kernel without LOD is far past the front's bound: one to an invocation.

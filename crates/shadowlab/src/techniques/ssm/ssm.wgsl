@@ -70,11 +70,18 @@ fn level_side(level: u32) -> i32 {
     return i32(ssm.levels[level].y);
 }
 
-// (nearest, farthest) stored depth of texel t of `level` in view `view`; off the map nothing occludes.
-fn hsm_texel(view: u32, level: u32, t: vec2<i32>) -> vec2<f32> {
+// (nearest, farthest) stored depth of texel t of `level` in view `view`. Off a single view's map
+// nothing occludes; past a cube face's edge the edge texels extend (as the comparison sampler's
+// clamp reads them for the other map techniques): the neighbouring face continues the occluders
+// there, and reading nothing lit the umbra along the seam.
+fn hsm_texel(view: u32, level: u32, t_in: vec2<i32>) -> vec2<f32> {
     let side = level_side(level);
+    var t = t_in;
     if (any(t < vec2<i32>(0)) || any(t >= vec2<i32>(side))) {
-        return vec2<f32>(0.0);
+        if (map_params.bias.w < 0.5) {
+            return vec2<f32>(0.0);
+        }
+        t = clamp(t, vec2<i32>(0), vec2<i32>(side - 1));
     }
     if (level == 0u) {
         let d = stored_depth(t, view);
@@ -493,10 +500,15 @@ fn map_texel(t: vec2<i32>, layer: i32) -> f32 {
 }
 // #endif
 
-// The nearest stored depth of sample s of the level (0 off the map: nothing there occludes).
-fn nearest_at(l: Level, s: vec2<i32>) -> f32 {
+// The nearest stored depth of sample s of the level (off the map as `hsm_texel`: nothing occludes
+// there, but past a cube face's edge its edge texels extend).
+fn nearest_at(l: Level, s_in: vec2<i32>) -> f32 {
+    var s = s_in;
     if (any(s < vec2<i32>(0)) || any(s >= vec2<i32>(l.side))) {
-        return 0.0;
+        if (map_params.bias.w < 0.5) {
+            return 0.0;
+        }
+        s = clamp(s, vec2<i32>(0), vec2<i32>(l.side - 1));
     }
     if (l.level == 0u) {
         return map_texel(s, l.layer);

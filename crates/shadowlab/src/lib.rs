@@ -16,6 +16,7 @@ pub mod auto;
 pub mod context;
 pub mod depth_range;
 pub mod frame;
+pub mod gbuffer;
 pub mod gpu;
 pub mod gpu_scene;
 pub mod kernel;

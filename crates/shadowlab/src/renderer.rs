@@ -12,10 +12,10 @@ use shadowlab_core::{LightId, Scene, View};
 
 use crate::context::Shared;
 use crate::frame::{CameraUniform, SurfaceInputs, VisibilityLayer};
+use crate::gbuffer::{GBuffer, target};
 use crate::gpu::Gpu;
 #[cfg(not(target_arch = "wasm32"))]
 use crate::gpu::GpuError;
-use crate::gpu_scene::{INSTANCE_LAYOUT, Sidedness, VERTEX_LAYOUT};
 use crate::live::{Applied, Edit, EditError, Work};
 use crate::registry::TechniqueSpec;
 use crate::shadows::Shadows;
@@ -30,29 +30,11 @@ struct EnvironmentUniform {
     background: Vec4,
 }
 
-const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
-const EMISSIVE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-/// Half floats (full ones are not renderable on downlevel adapters): N_g · L keeps its sign except
-/// within about 1e-3 of grazing, where relevance is a coin toss for any convention.
-const GEOMETRIC_NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// The final image.
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub use crate::gbuffer::DEPTH_FORMAT;
 const BACKGROUND: Vec3 = Vec3::new(0.018, 0.022, 0.03);
-
-fn target(
-    device: &wgpu::Device,
-    label: &str,
-    format: wgpu::TextureFormat,
-    w: u32,
-    h: u32,
-    extra: wgpu::TextureUsages,
-) -> wgpu::Texture {
-    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | extra;
-    util::texture_2d(device, label, format, (w, h), usage)
-}
 
 /// Timings of one rendered frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,11 +63,7 @@ pub struct Renderer {
 /// The G-buffer and output targets of one size, with the bind groups over them.
 struct Targets {
     surface: SurfaceInputs,
-    depth: wgpu::Texture,
-    normal: wgpu::Texture,
-    albedo: wgpu::Texture,
-    emissive: wgpu::Texture,
-    geometric_normal: wgpu::Texture,
+    gbuffer: GBuffer,
     hdr: wgpu::Texture,
     output: wgpu::Texture,
     lighting_group: wgpu::BindGroup,
@@ -96,20 +74,13 @@ impl Targets {
     fn new(shared: &Shared, environment: &wgpu::Buffer, camera: CameraUniform, width: u32, height: u32) -> Self {
         let device = &shared.gpu.device;
         let none = wgpu::TextureUsages::empty();
-        let depth = target(device, "depth", DEPTH_FORMAT, width, height, none);
-        let normal = target(device, "normal", NORMAL_FORMAT, width, height, none);
-        let albedo = target(device, "albedo", ALBEDO_FORMAT, width, height, none);
-        let emissive = target(device, "emissive", EMISSIVE_FORMAT, width, height, none);
-        let geometric_normal = target(device, "geometric normal", GEOMETRIC_NORMAL_FORMAT, width, height, none);
+        let gbuffer = GBuffer::new(device, width, height);
         let hdr = target(device, "hdr", HDR_FORMAT, width, height, none);
         let output = target(device, "output", OUTPUT_FORMAT, width, height, wgpu::TextureUsages::COPY_SRC);
         let view_of = |t: &wgpu::Texture| t.create_view(&Default::default());
-        let mut surface = SurfaceInputs::new(device, view_of(&depth), view_of(&normal), camera, width, height);
-        // The G-buffer draws the scene's instances and nothing else.
-        surface.set_shows_only_scene(true);
-        surface.set_geometric_normal(view_of(&geometric_normal));
+        let surface = gbuffer.surface(device, camera);
         let layouts = lighting_layouts(shared);
-        let (albedo_view, emissive_view) = (view_of(&albedo), view_of(&emissive));
+        let (albedo_view, emissive_view) = (view_of(&gbuffer.albedo), view_of(&gbuffer.emissive));
         let mut entries = vec![
             wgpu::BindGroupEntry { binding: 0, resource: surface.camera_buffer.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&surface.depth) },
@@ -136,7 +107,7 @@ impl Targets {
                 resource: wgpu::BindingResource::TextureView(&view_of(&hdr)),
             }],
         });
-        Self { surface, depth, normal, albedo, emissive, geometric_normal, hdr, output, lighting_group, tonemap_group }
+        Self { surface, gbuffer, hdr, output, lighting_group, tonemap_group }
     }
 }
 
@@ -277,48 +248,11 @@ impl Renderer {
     }
 
     fn gbuffer_pass(&mut self, encoder: &mut wgpu::CommandEncoder) {
-        let shared = self.shadows.shared();
         let timestamps = self.timer.render_pass(&self.gpu.device, PassKind::Gbuffer);
-        let views =
-            [&self.targets.normal, &self.targets.albedo, &self.targets.emissive, &self.targets.geometric_normal]
-                .map(|t| t.create_view(&Default::default()));
-        let clear = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
-        let depth_view = self.targets.depth.create_view(&Default::default());
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("g-buffer"),
-            color_attachments: &[clear(&views[0]), clear(&views[1]), clear(&views[2]), clear(&views[3])],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        let camera_group = gbuffer_camera_group(shared, &self.targets.surface.camera_buffer);
-        let gpu_scene = self.shadows.gpu_scene();
-        gpu_scene.bind(&mut pass);
-        pass.set_bind_group(0, Some(&camera_group), &[]);
-        for g in &gpu_scene.groups {
-            // Single-sided surfaces are seen from the front only; double-sided from both sides.
-            let cull = if g.sidedness == Sidedness::DoubleSided { None } else { Some(wgpu::Face::Back) };
-            pass.set_pipeline(&gbuffer_pipeline(shared, cull, g.mirrored));
-            if let Some(texture) = gpu_scene.base_colours.get(g.texture as usize) {
-                pass.set_bind_group(1, Some(texture), &[]);
-            }
-            gpu_scene.draw(&mut pass, std::iter::once(g));
-        }
+        let camera = &self.targets.surface.camera_buffer;
+        self.targets
+            .gbuffer
+            .draw(self.shadows.shared(), encoder, self.shadows.gpu_scene(), camera, timestamps, |_| true);
     }
 
     /// Base pass, one additive pass per light, tone mapping. With `override_layers`, lights use
@@ -504,7 +438,7 @@ impl Renderer {
                 wgpu::BindGroupEntry {
                     binding: 5,
                     resource: wgpu::BindingResource::TextureView(
-                        &self.targets.geometric_normal.create_view(&Default::default()),
+                        &self.targets.gbuffer.geometric_normal.create_view(&Default::default()),
                     ),
                 },
                 wgpu::BindGroupEntry { binding: 6, resource: geometric_normals.as_entire_binding() },
@@ -686,76 +620,6 @@ fn fullscreen_pipeline(
         }),
         multiview_mask: None,
         cache: None,
-    })
-}
-
-fn gbuffer_camera_layout(shared: &Shared) -> wgpu::BindGroupLayout {
-    shared.layout("gbuffer camera", || {
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("gbuffer camera"),
-            entries: &[crate::context::uniform_entry(0, wgpu::ShaderStages::VERTEX)],
-        })
-    })
-}
-
-fn gbuffer_camera_group(shared: &Shared, camera: &wgpu::Buffer) -> wgpu::BindGroup {
-    shared.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("gbuffer camera"),
-        layout: &gbuffer_camera_layout(shared),
-        entries: &[wgpu::BindGroupEntry { binding: 0, resource: camera.as_entire_binding() }],
-    })
-}
-
-fn gbuffer_pipeline(shared: &Shared, cull: Option<wgpu::Face>, mirrored: bool) -> wgpu::RenderPipeline {
-    let key = format!("gbuffer {cull:?} mirrored={mirrored}");
-    shared.render_pipeline(&key, || {
-        let device = &shared.gpu.device;
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("gbuffer"),
-            bind_group_layouts: &[
-                Some(&gbuffer_camera_layout(shared)),
-                Some(&crate::gpu_scene::base_colour_layout(device)),
-            ],
-            immediate_size: 0,
-        });
-        let module = crate::shader::module(device, "gbuffer", include_str!("gbuffer.wgsl"));
-        let color = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(&key),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(VERTEX_LAYOUT), Some(INSTANCE_LAYOUT)],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: cull,
-                front_face: if mirrored { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[
-                    color(NORMAL_FORMAT),
-                    color(ALBEDO_FORMAT),
-                    color(EMISSIVE_FORMAT),
-                    color(GEOMETRIC_NORMAL_FORMAT),
-                ],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
     })
 }
 

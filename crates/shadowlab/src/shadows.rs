@@ -20,7 +20,7 @@ use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
 use crate::live::cache::MAP_TEXEL_BYTES;
 use crate::live::scheduler::{Adaptation, Budget, CostModel, Step, UnitCounts, screen_share};
-use crate::live::temporary::TemporaryShadows;
+use crate::live::temporary::{PermanentSurface, TemporaryShadows};
 use crate::live::validity::screen_signature;
 use crate::live::{Applied, Edit, EditError, EditKind, InstanceState, LiveScene, ShadowCache, Signature, Work};
 use crate::registry::TechniqueSpec;
@@ -153,6 +153,8 @@ pub struct Shadows {
     map_budget: Option<u64>,
     /// The shares of the budget by (light, rung), and the key of the demands they were made for.
     map_plan: Option<MapPlan>,
+    /// What the lights' techniques shadow while objects are dragged (`None` otherwise).
+    permanent: Option<PermanentSurface>,
 }
 
 impl Shadows {
@@ -179,6 +181,7 @@ impl Shadows {
             size: (0, 0),
             map_budget: Some(DEFAULT_MAP_BUDGET),
             map_plan: None,
+            permanent: None,
         }
     }
 
@@ -639,6 +642,27 @@ impl Shadows {
                 s.uniform_version = state.colour_version;
             }
         }
+        // Dragged objects cast through a compute lookup (`live/temporary.rs`): without compute
+        // (WebGL2) they cast no shadow while dragged, and every cache still leaves them out.
+        // While they cast, the techniques shadow the permanent surface, which a drag leaves alone.
+        let casting = self.shared.compute && TemporaryShadows::active(&self.live);
+        if casting {
+            PermanentSurface::update(
+                &mut self.permanent,
+                &self.shared,
+                encoder,
+                &self.gpu_scene,
+                &self.live,
+                surface,
+                timer,
+            );
+        } else {
+            self.permanent = None;
+        }
+        let shadowed = match (&self.permanent, casting) {
+            (Some(p), true) => &p.inputs,
+            _ => surface,
+        };
         let mut budget = match self.frame_target_ms() {
             Some(target) => Budget::for_frame(target, self.render_ms.unwrap_or(0.0), BUDGET_MARGIN),
             None => Budget::unlimited(),
@@ -659,7 +683,7 @@ impl Shadows {
                     encoder,
                     scene: self.live.scene(),
                     gpu_scene: &self.gpu_scene,
-                    surface,
+                    surface: shadowed,
                     light,
                     light_id: s.light,
                     light_buffer: &s.light_buffer,
@@ -692,9 +716,6 @@ impl Shadows {
                 );
             }
         }
-        // Dragged objects cast through a compute lookup (`live/temporary.rs`): without compute
-        // (WebGL2) they cast no shadow while dragged, and every cache still leaves them out.
-        let casting = self.shared.compute && TemporaryShadows::active(&self.live);
         let temporaries = self.live.temporary_states();
         for (k, s) in self.lights.iter_mut().enumerate() {
             if !casting {
@@ -703,17 +724,19 @@ impl Shadows {
             let Some(light) = self.live.light(s.light) else { continue };
             // The best allowed rung with something complete to show; none: unshadowed.
             let shown = (0..s.rungs.len().min(rungs)).rev().find(|&r| s.rungs[r].technique.shown());
-            let key = (screen_signature(&self.live, s.light, surface.generation()), shown.unwrap_or(usize::MAX));
+            let key = (screen_signature(&self.live, s.light, shadowed.generation()), shown.unwrap_or(usize::MAX));
             let per_pixel = match shown {
                 Some(r) => s.rungs[r].technique.resolves_per_pixel(),
                 None => s.unshadowed.resolves_per_pixel(),
             };
-            // Only dragged objects moved since the layer was resolved: every pixel but their
-            // footprints holds (the validity table's `Footprint`), and the dragged objects' own
-            // shadows are redone whenever they moved.
+            // Only dragged objects moved since the layer was resolved: over the permanent surface
+            // every pixel holds (they cast), or every pixel but their footprints (the validity
+            // table's `Footprint`: they do not); the dragged objects' own shadows are redone
+            // whenever they moved.
             let (redo, moved) = match &s.resolved {
                 Some(r) if self.cache.enabled() && !rebuilt[k] && r.key == key && r.casting == casting => {
                     let redo = match moved_footprint(&surface.camera, &r.temporaries, &temporaries) {
+                        _ if casting => Redo::Nothing,
                         Footprint::Nothing => Redo::Nothing,
                         Footprint::Rect(rect) if per_pixel => Redo::Region(rect),
                         _ => Redo::Whole,
@@ -725,7 +748,9 @@ impl Shadows {
             if redo == Redo::Nothing && !(casting && moved) {
                 continue;
             }
-            self.cache.work.resolves += 1;
+            if redo != Redo::Nothing {
+                self.cache.work.resolves += 1;
+            }
             s.shown = shown;
             let (level, samples) = match shown {
                 Some(r) => {
@@ -751,7 +776,7 @@ impl Shadows {
                 encoder,
                 scene: self.live.scene(),
                 gpu_scene: &self.gpu_scene,
-                surface,
+                surface: shadowed,
                 light,
                 light_id: s.light,
                 light_buffer: &s.light_buffer,
@@ -776,7 +801,8 @@ impl Shadows {
                     technique.resolve(&mut ctx, raw);
                 }
                 ctx.region = None;
-                s.temporary.apply(&mut ctx, &s.layer);
+                ctx.surface = surface;
+                s.temporary.apply(&mut ctx, &s.layer, shadowed, redo != Redo::Nothing);
             } else {
                 technique.resolve(&mut ctx, &s.layer);
             }
@@ -813,6 +839,8 @@ impl Shadows {
     /// GPU bytes held for shadows: every technique's maps and buffers, the visibility layers and
     /// the temporary objects' maps.
     pub fn memory_bytes(&self) -> u64 {
-        self.stats().memory_bytes + self.lights.iter().map(|s| s.temporary.bytes()).sum::<u64>()
+        self.stats().memory_bytes
+            + self.lights.iter().map(|s| s.temporary.bytes()).sum::<u64>()
+            + self.permanent.as_ref().map_or(0, PermanentSurface::bytes)
     }
 }

@@ -15,11 +15,15 @@ use shadowlab_core::convex::ConvexBody;
 use shadowlab_core::lightspace::{ShadowView, light_frusta};
 use shadowlab_core::{Aabb, Mobility};
 
+use super::edits::InstanceId;
 use super::scene::LiveScene;
 use crate::context::{RegionUniform, Shared, UNFILTERED, texture_entry, uniform_entry};
-use crate::frame::{CameraUniform, Footprint, VisibilityLayer};
+use crate::frame::{CameraUniform, Footprint, SurfaceInputs, VisibilityLayer};
+use crate::gbuffer::GBuffer;
+use crate::gpu_scene::GpuScene;
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
 use crate::technique::{FrameContext, dispatch_resolve_rect};
+use crate::timing::{GpuTimer, PassKind};
 
 /// Texels per side of a temporary object's map (the object alone fills it) for an output of
 /// `width × height`: twice the output's larger side, as a power of two within 256..=1024. The
@@ -36,14 +40,76 @@ const SLOPE_BIAS: f32 = 1.5;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 struct TemporaryUniform {
-    /// x: views.
+    /// x: the temporary objects' views; y: the permanent views before them; z: 1 when those are
+    /// a cube's six faces.
     counts: [u32; 4],
+}
+
+/// The permanent instances alone, seen by the application's camera, while objects are dragged:
+/// the surface the lights' techniques shadow then. Their layers depend on nothing a drag changes,
+/// so a drag step resolves nothing again (the dragged objects' pass alone runs); pixels that show
+/// a dragged object take the permanent casters' hard shadow instead ([`TemporaryShadows::apply`]).
+/// Drawn again when the camera, the permanent scene or the set of dragged objects changes.
+pub struct PermanentSurface {
+    gbuffer: GBuffer,
+    pub inputs: SurfaceInputs,
+    /// The application surface's generation, the permanent epoch and the dragged instances it was
+    /// drawn for.
+    drawn: Option<(u64, u64, Vec<InstanceId>)>,
+}
+
+impl PermanentSurface {
+    /// Brings `slot` up to date with `surface` (drawing it when anything it shows changed).
+    pub fn update<'s>(
+        slot: &'s mut Option<Self>,
+        shared: &Shared,
+        encoder: &mut wgpu::CommandEncoder,
+        gpu_scene: &GpuScene,
+        live: &LiveScene,
+        surface: &SurfaceInputs,
+        timer: &mut GpuTimer,
+    ) -> &'s SurfaceInputs {
+        let device = &shared.gpu.device;
+        let (width, height) = (surface.width, surface.height);
+        if slot.as_ref().is_none_or(|p| p.gbuffer.size() != (width, height)) {
+            let gbuffer = GBuffer::new(device, width, height);
+            let inputs = gbuffer.surface(device, surface.camera);
+            *slot = Some(Self { gbuffer, inputs, drawn: None });
+        }
+        let p = slot.as_mut().expect("made above");
+        let dragged: Vec<InstanceId> = live
+            .scene()
+            .instances
+            .iter()
+            .zip(live.instances())
+            .filter(|(i, _)| i.mobility == Mobility::Temporary)
+            .map(|(_, s)| s.id)
+            .collect();
+        let key = (surface.generation(), live.permanent_epoch(), dragged);
+        if p.drawn.as_ref() != Some(&key) {
+            // A new camera (or anything else): the layers over the old surface no longer hold.
+            p.inputs.set_camera(&shared.gpu.queue, surface.camera);
+            let timestamps = timer.render_pass(device, PassKind::Gbuffer);
+            let camera = &p.inputs.camera_buffer;
+            p.gbuffer.draw(shared, encoder, gpu_scene, camera, timestamps, |g| g.mobility != Mobility::Temporary);
+            p.drawn = Some(key);
+        }
+        &p.inputs
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.gbuffer.bytes()
+    }
 }
 
 /// The temporary objects' shadows of one light, rebuilt each frame while any object is dragged.
 pub struct TemporaryShadows {
     raw: Option<VisibilityLayer>,
+    /// The permanent casters' views (layers from 0: they shadow the dragged objects) and then the
+    /// temporary objects' own.
     maps: Option<(ShadowMapArray, wgpu::BindGroup)>,
+    /// Permanent views drawn in `maps` and still valid (0: none).
+    permanent: u32,
     bias: wgpu::Buffer,
     counts: wgpu::Buffer,
     /// The `RegionUniform` of the pixels the objects' shadows may fall on.
@@ -57,6 +123,7 @@ impl TemporaryShadows {
         Self {
             raw: None,
             maps: None,
+            permanent: 0,
             bias: crate::util::uniform_buffer(device, "temporary bias", bytemuck::bytes_of(&bias)),
             counts: crate::util::uniform_buffer(
                 device,
@@ -88,7 +155,7 @@ impl TemporaryShadows {
 
     /// Frees the layer and maps once nothing is dragged: a drag holds them, a still scene does not.
     pub fn release(&mut self) {
-        (self.raw, self.maps) = (None, None);
+        (self.raw, self.maps, self.permanent) = (None, None, 0);
     }
 
     pub fn bytes(&self) -> u64 {
@@ -96,9 +163,19 @@ impl TemporaryShadows {
     }
 
     /// Renders the temporary objects' maps for the context's light and writes `out` = the raw
-    /// layer × their shadows. Only the pixels their shadows may fall on are looked up
-    /// ([`shadow_footprint`]); the others are copied from the raw layer.
-    pub fn apply(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+    /// layer × their shadows, where the raw layer is the light's technique over the permanent
+    /// surface (`permanent`: what the eye would see without the dragged objects). Where the eye
+    /// sees a dragged object instead, the permanent casters' hard shadow stands in for the raw
+    /// layer, from maps of the whole scene drawn once (`redraw`: the raw layer was resolved again)
+    /// and kept while the drag goes on. Only the pixels their shadows may fall on are looked up
+    /// ([`shadow_footprint`]; the objects lie within it); the others are copied from the raw layer.
+    pub fn apply(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        out: &VisibilityLayer,
+        permanent: &SurfaceInputs,
+        redraw: bool,
+    ) {
         let shared = ctx.shared;
         let size = map_size(ctx.surface.width, ctx.surface.height);
         let mut views: Vec<ShadowView> = Vec::new();
@@ -126,11 +203,14 @@ impl TemporaryShadows {
                 }
             }
         };
-        let n = views.len() as u32;
-        if self.maps.as_ref().is_none_or(|(m, _)| m.layers < n || m.size != size) {
+        // The whole scene's box, which dragging does not change: the permanent views stay put.
+        let whole = light_frusta(ctx.light, &padded(&ctx.live.fit_bounds()), size).views;
+        let (p, n) = (whole.len() as u32, views.len() as u32);
+        if self.maps.as_ref().is_none_or(|(m, _)| m.layers < p + n || m.size != size) {
             // Room for a power of two of views: a 1024² layer is 4 MiB, so no spare layers for one
             // object's single frustum, yet a drag that grows from one view to six reallocates once.
-            let capacity = n.max(1).next_power_of_two();
+            let capacity = (p + n).max(1).next_power_of_two();
+            self.permanent = 0;
             let maps = ShadowMapArray::new(shared, size, capacity, capacity);
             let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, size as f32, 0.0), mode: Vec4::ZERO };
             ctx.gpu.queue.write_buffer(&self.bias, 0, bytemuck::bytes_of(&bias));
@@ -138,13 +218,22 @@ impl TemporaryShadows {
             self.maps = Some((maps, group));
         }
         let (maps, group) = self.maps.as_ref().expect("made above");
-        maps.set_views(&ctx.gpu.queue, 0, &views);
         let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
-        for i in 0..n {
+        if redraw || self.permanent != p {
+            maps.set_views(&ctx.gpu.queue, 0, &whole);
+            for i in 0..p {
+                maps.render(ctx, i, i, &raster);
+            }
+            ctx.cache.work.temporary_views += p;
+            self.permanent = p;
+        }
+        maps.set_views(&ctx.gpu.queue, p, &views);
+        for i in p..p + n {
             maps.render_casters(ctx, i, i, &raster, &[Mobility::Temporary], true);
         }
         ctx.cache.work.temporary_views += n;
-        ctx.gpu.queue.write_buffer(&self.counts, 0, bytemuck::bytes_of(&TemporaryUniform { counts: [n, 0, 0, 0] }));
+        let cube = u32::from(p == 6);
+        ctx.gpu.queue.write_buffer(&self.counts, 0, bytemuck::bytes_of(&TemporaryUniform { counts: [n, p, cube, 0] }));
         ctx.gpu.queue.write_buffer(&self.region, 0, bytemuck::bytes_of(&RegionUniform { rect }));
         let device = &shared.gpu.device;
         let own = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -153,6 +242,7 @@ impl TemporaryShadows {
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&raw.view) },
                 wgpu::BindGroupEntry { binding: 1, resource: self.counts.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&permanent.depth) },
             ],
         });
         let pipeline = shared.resolve_pipeline(
@@ -201,6 +291,7 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
             entries: &[
                 texture_entry(0, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
                 uniform_entry(1, wgpu::ShaderStages::COMPUTE),
+                texture_entry(2, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
             ],
         })
     })

@@ -324,18 +324,6 @@ impl Shared {
     }
 }
 
-/// The layout of [`crate::technique::Covered`]: binding 0 the count (`shaders/patches.wgsl`'s
-/// `Patches`, a uniform), 1 the rectangles (`Patch`, read-only storage).
-pub fn covered_layout(shared: &Shared) -> wgpu::BindGroupLayout {
-    shared.layout("covered pixels", || {
-        let c = wgpu::ShaderStages::COMPUTE;
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("covered pixels"),
-            entries: &[uniform_entry(0, c), storage_entry(1, c, true)],
-        })
-    })
-}
-
 pub fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,

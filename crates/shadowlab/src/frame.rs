@@ -214,8 +214,7 @@ pub struct SurfaceInputs {
     /// Changes whenever the surface may have: a new camera, or [`SurfaceInputs::touch`]. With the
     /// scene unchanged too, a light's visibility of the last frame still holds.
     generation: u64,
-    /// The depth buffer shows the scene's instances and nothing else (see
-    /// [`SurfaceInputs::set_shows_only_scene`]).
+    /// What [`SurfaceInputs::set_shows_only_scene`] said (read by nothing).
     only_scene: bool,
 }
 
@@ -261,14 +260,16 @@ impl SurfaceInputs {
         self.geometric_normal.as_ref().unwrap_or(&self.normal)
     }
 
-    /// Says that the depth buffer shows the scene's instances and nothing else (the `Renderer`'s
-    /// G-buffer does): every surface point then lies within the scene's bounds, and shadow volumes
-    /// skip the casters whose volumes reach no point there. Off by default, for applications
-    /// that draw things of their own into the depth buffer.
+    /// Said that the depth buffer shows the scene's instances and nothing else, for the culling of
+    /// a dragged object's footprint in shadow volumes. Dragged objects no longer make any technique
+    /// resolve a footprint (the permanent surface, `live::temporary::PermanentSurface`), so nothing
+    /// reads it.
+    #[deprecated(note = "nothing reads it: dragged objects no longer make techniques resolve a footprint")]
     pub fn set_shows_only_scene(&mut self, only: bool) {
         self.only_scene = only;
     }
 
+    #[deprecated(note = "nothing reads it: dragged objects no longer make techniques resolve a footprint")]
     pub fn shows_only_scene(&self) -> bool {
         self.only_scene
     }

@@ -60,13 +60,11 @@ impl GBuffer {
         u64::from(w) * u64::from(h) * 32
     }
 
-    /// The surface techniques shadow: this G-buffer's depth and normals, seen by `camera`. It shows
-    /// the scene's instances and nothing else.
+    /// The surface techniques shadow: this G-buffer's depth and normals, seen by `camera`.
     pub fn surface(&self, device: &wgpu::Device, camera: CameraUniform) -> SurfaceInputs {
         let view_of = |t: &wgpu::Texture| t.create_view(&Default::default());
         let (w, h) = self.size();
         let mut surface = SurfaceInputs::new(device, view_of(&self.depth), view_of(&self.normal), camera, w, h);
-        surface.set_shows_only_scene(true);
         surface.set_geometric_normal(view_of(&self.geometric_normal));
         surface
     }

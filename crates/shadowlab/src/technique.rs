@@ -53,12 +53,6 @@ pub struct TechniqueStats {
     pub extra: Vec<(String, f64)>,
 }
 
-/// Pixels a wrapping technique overwrites after its wrapped one resolved them: planar rectangles
-/// (`shaders/patches.wgsl`) in a group of [`crate::context::covered_layout`].
-pub struct Covered<'b> {
-    pub group: &'b wgpu::BindGroup,
-}
-
 /// Everything a technique may use during a frame.
 pub struct FrameContext<'a> {
     pub gpu: &'a Gpu,
@@ -161,13 +155,6 @@ pub trait ShadowTechnique: Send {
     /// Writes V for every pixel of the surface into `out` (with [`FrameContext::region`]: at least
     /// every pixel of the region).
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer);
-    /// [`ShadowTechnique::resolve`] for a wrapper that overwrites the `covered` pixels afterwards
-    /// (`lightmaps` over its `rest`): their V may be left wrong, so a technique may save work there
-    /// (`volumes` culls a region's casters against the rest of its surface). By default, `resolve`.
-    fn resolve_beneath(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer, covered: &Covered<'_>) {
-        let _ = covered;
-        self.resolve(ctx, out);
-    }
     fn stats(&self) -> TechniqueStats;
     /// Whether each pixel's V depends only on that pixel's surface and what `prepare` left (no
     /// screen-space filtering, no neighbours): then a frame in which only some pixels' surface

@@ -179,17 +179,6 @@ impl LiveScene {
         self.fit_bounds
     }
 
-    /// Bounds of every instance, temporary ones included: every point of a surface that shows the
-    /// scene and nothing else lies inside (`SurfaceInputs::shows_only_scene`).
-    pub fn surface_bounds(&self) -> Aabb {
-        self.scene
-            .instances
-            .iter()
-            .zip(&self.instances)
-            .filter(|(i, _)| i.mobility == Mobility::Temporary)
-            .fold(self.fit_bounds, |b, (_, s)| b.union(&s.bounds))
-    }
-
     /// [`LiveScene::fit_bounds`] of the shadow casters.
     pub fn fit_caster_bounds(&self) -> Aabb {
         self.fit_caster_bounds

@@ -1,6 +1,5 @@
 // Receiver light maps' patches (`lightmaps`): planar rectangles whose pixels take their visibility
-// from a texture in the patch's plane. Shared by the lookup that writes those pixels and by the
-// shaders that may leave them to it (`volumes`' region culling: `technique::Covered`).
+// from a texture in the patch's plane.
 
 struct Patch {
     // xyz: the rectangle's corner; w: its width.

@@ -38,7 +38,7 @@ use crate::live::validity::{Region, hash_values, lightmap_signature};
 use crate::live::{ItemKey, ItemKind, Signature};
 use crate::shadowmap::PERMANENT;
 use crate::technique::{
-    Compose, Covered, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve_in,
+    Compose, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve_in,
 };
 use crate::timing::PassKind;
 
@@ -177,8 +177,6 @@ struct State {
     patch_buffer: wgpu::Buffer,
     count_buffer: wgpu::Buffer,
     group: wgpu::BindGroup,
-    /// The patches alone, for `rest`'s `resolve_beneath` (the pixels the lookup overwrites).
-    covered_group: wgpu::BindGroup,
     bytes: u64,
 }
 
@@ -451,14 +449,6 @@ impl Lightmaps {
                 wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&sampler) },
             ],
         });
-        let covered_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("light map patches"),
-            layout: &crate::context::covered_layout(shared),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: count_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: patch_buffer.as_entire_binding() },
-            ],
-        });
         let bytes = u64::from(size.0) * u64::from(size.1) * (8 * u64::from(layers) + 1)
             + fills.size()
             + patch_buffer.size()
@@ -486,7 +476,6 @@ impl Lightmaps {
             patch_buffer,
             count_buffer,
             group,
-            covered_group,
             bytes,
         }
     }
@@ -852,8 +841,8 @@ impl ShadowTechnique for Lightmaps {
             self.rest.resolve(ctx, out);
             return;
         };
-        // The lookup below overwrites every pixel on a filled patch: `rest` may leave them.
-        self.rest.resolve_beneath(ctx, out, &Covered { group: &state.covered_group });
+        // The lookup below overwrites every pixel on a filled patch.
+        self.rest.resolve(ctx, out);
         let group0 = ctx.resolve_group(out);
         dispatch_resolve_in(ctx, "light maps", &self.lookup, &[&group0, &state.group]);
     }

@@ -30,10 +30,6 @@ pub(super) struct MeshRanges {
 pub(super) struct VolumeTopology {
     pub meshes: Vec<MeshRanges>,
     pub topologies: Vec<Topology>,
-    /// Per mesh, object-space boxes around parts of its triangles
-    /// ([`shadowlab_core::volumes::triangle_parts`]): the culling of a region's casters tests
-    /// their shadow hulls, tighter than the whole mesh's.
-    pub parts: Vec<Vec<shadowlab_core::Aabb>>,
     pub group: wgpu::BindGroup,
     pub bytes: u64,
 }
@@ -59,10 +55,6 @@ fn buffer(device: &wgpu::Device, label: &str, mut bytes: Vec<u8>) -> wgpu::Buffe
     crate::util::storage_buffer(device, label, &bytes)
 }
 
-/// At most 2^3 = 8 parts a mesh: enough to split a room's walls or a table's top from its legs,
-/// few enough that testing them costs nothing beside a draw.
-const PART_LEVELS: u32 = 3;
-
 impl VolumeTopology {
     /// The scene's topology, built once per [`Shared`] and shared by every light.
     pub fn shared(shared: &Shared, scene: &Scene) -> Arc<Self> {
@@ -76,10 +68,8 @@ impl VolumeTopology {
         let mut uses: Vec<u32> = Vec::new();
         let mut meshes = Vec::with_capacity(scene.meshes.len());
         let mut topologies = Vec::with_capacity(scene.meshes.len());
-        let mut parts = Vec::with_capacity(scene.meshes.len());
         for mesh in &scene.meshes {
             let topo = Topology::build(mesh);
-            parts.push(shadowlab_core::volumes::triangle_parts(&topo.positions, &topo.triangles, PART_LEVELS));
             let base = positions.len() as u32;
             let mut quads = [0u32; 2];
             for e in 0..topo.edges.len() {
@@ -127,7 +117,7 @@ impl VolumeTopology {
             ],
         });
         let bytes = buffers.iter().map(wgpu::Buffer::size).sum();
-        Self { meshes, topologies, parts, group, bytes }
+        Self { meshes, topologies, group, bytes }
     }
 }
 
@@ -150,9 +140,6 @@ pub(super) struct Caster {
     pub centre: Vec3,
     pub radius: f32,
     pub bounds: shadowlab_core::Aabb,
-    /// World boxes around parts of its triangles (`VolumeTopology::parts`, transformed): its
-    /// volumes lie in the union of their shadow hulls.
-    pub parts: Vec<shadowlab_core::Aabb>,
     pub mobility: shadowlab_core::Mobility,
 }
 
@@ -186,7 +173,6 @@ impl Caster {
                     centre,
                     radius,
                     bounds,
-                    parts: topology.parts[i.mesh.index()].iter().map(|b| b.transformed(&i.transform)).collect(),
                     mobility: i.mobility,
                 }
             })

@@ -58,9 +58,7 @@ use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
 use crate::shadowmap::lookup_layout;
-use crate::technique::{
-    Covered, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, scissor_to,
-};
+use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, scissor_to};
 use crate::timing::PassKind;
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -145,8 +143,6 @@ pub(crate) struct Volumes {
     /// The alpha-masked casters' map (their fallback; see the module's doc), while the scene has
     /// any in this instance's set.
     masked: Option<LightMap>,
-    /// A region's culling against its surface (`cull.wgsl`).
-    cull: Cull,
     /// The last frame's plans (methods, drawn casters, for the draws and the stats).
     plans: Vec<SamplePlan>,
     frames: u64,
@@ -182,147 +178,6 @@ struct State {
     /// Whether the readback holds a frame not yet read.
     readback_pending: bool,
     bytes: u64,
-}
-
-/// The buffers of a region's culling (`cull.wgsl`), grown as needed and kept.
-#[derive(Default)]
-struct Cull {
-    firsts: Option<wgpu::Buffer>,
-    hulls: Option<wgpu::Buffer>,
-    casters: Option<wgpu::Buffer>,
-    /// The store's indirect draws, the casters that miss the region's surface drawing nothing.
-    draws: Option<wgpu::Buffer>,
-    /// The box of the region's surface points (`cull.wgsl`, `bounds`).
-    bounds: Option<wgpu::Buffer>,
-}
-
-impl Cull {
-    fn bytes(&self) -> u64 {
-        [&self.firsts, &self.hulls, &self.casters, &self.draws, &self.bounds]
-            .iter()
-            .filter_map(|b| b.as_ref())
-            .map(|b| b.size())
-            .sum()
-    }
-
-    /// Writes `inputs` and records the culling of every sample's casters against the region's
-    /// surface, into `draws` (the store's draws, `items` of them per region).
-    fn record(
-        &mut self,
-        ctx: &mut FrameContext<'_>,
-        group0: &wgpu::BindGroup,
-        covered: Option<&Covered<'_>>,
-        inputs: &plan::CullInputs,
-        store: &Store,
-        samples: u32,
-    ) {
-        let device = &ctx.gpu.device;
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let fit = |slot: &mut Option<wgpu::Buffer>, label: &'static str, size: u64, usage: wgpu::BufferUsages| {
-            if slot.as_ref().is_none_or(|b| b.size() < size) {
-                // Doubling: a drag over a changing surface settles on a size.
-                let size = size.next_power_of_two().max(256);
-                *slot = Some(device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size,
-                    usage,
-                    mapped_at_creation: false,
-                }));
-            }
-        };
-        let hulls: &[u8] = bytemuck::cast_slice(&inputs.hulls);
-        let casters: &[u8] = bytemuck::cast_slice(&inputs.casters);
-        let firsts: &[u8] = bytemuck::cast_slice(&inputs.firsts);
-        fit(&mut self.firsts, "volume cull samples", firsts.len() as u64, storage);
-        fit(&mut self.hulls, "volume cull hulls", hulls.len().max(16) as u64, storage);
-        fit(&mut self.casters, "volume cull casters", casters.len().max(16) as u64, storage);
-        let draws = 48 * u64::from(store.items());
-        if self.draws.as_ref().is_some_and(|b| b.size() != draws) {
-            self.draws = None;
-        }
-        fit(&mut self.draws, "volume culled draws", draws, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT);
-        fit(&mut self.bounds, "volume cull bounds", 32, storage);
-        let (Some(f), Some(h), Some(c), Some(d), Some(b)) =
-            (&self.firsts, &self.hulls, &self.casters, &self.draws, &self.bounds)
-        else {
-            return;
-        };
-        ctx.encoder.clear_buffer(b, 0, None);
-        let rect = ctx.region_rect().unwrap_or([0, 0, ctx.surface.width, ctx.surface.height]);
-        let queue = &ctx.gpu.queue;
-        queue.write_buffer(f, 0, firsts);
-        if !hulls.is_empty() {
-            queue.write_buffer(h, 0, hulls);
-        }
-        if !casters.is_empty() {
-            queue.write_buffer(c, 0, casters);
-        }
-        let shared = ctx.shared;
-        let layout = cull_layout(shared);
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("volume cull"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: f.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: h.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: c.as_entire_binding() },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &store.counters,
-                        offset: 0,
-                        size: std::num::NonZeroU64::new(draws),
-                    }),
-                },
-                wgpu::BindGroupEntry { binding: 4, resource: d.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: b.as_entire_binding() },
-            ],
-        });
-        let source = include_str!("cull.wgsl");
-        let pipeline = |entry: &str| match covered {
-            Some(_) => shared.resolve_pipeline_with(
-                &format!("volumes {entry} covered"),
-                source,
-                entry,
-                &[&layout, &crate::context::covered_layout(shared)],
-                &[],
-                &["COVERED"],
-            ),
-            None => shared.resolve_pipeline(&format!("volumes {entry}"), source, entry, &[&layout], &[]),
-        };
-        let (bounds, cull) = (pipeline("region_bounds"), pipeline("cull"));
-        let timestamps = ctx.timer.compute_pass(device, PassKind::Shadow);
-        let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("volume cull"),
-            timestamp_writes: timestamps,
-        });
-        pass.set_bind_group(0, Some(group0), &[]);
-        pass.set_bind_group(1, Some(&group), &[]);
-        if let Some(c) = covered {
-            pass.set_bind_group(2, Some(c.group), &[]);
-        }
-        pass.set_pipeline(&bounds);
-        pass.dispatch_workgroups(rect[2].div_ceil(8), rect[3].div_ceil(8), 1);
-        pass.set_pipeline(&cull);
-        pass.dispatch_workgroups(samples, 1, 1);
-    }
-}
-
-fn cull_layout(shared: &Shared) -> wgpu::BindGroupLayout {
-    shared.layout("volumes cull", || {
-        let c = wgpu::ShaderStages::COMPUTE;
-        shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("volumes cull"),
-            entries: &[
-                storage_entry(0, c, true),
-                storage_entry(1, c, true),
-                storage_entry(2, c, true),
-                storage_entry(3, c, true),
-                storage_entry(4, c, false),
-                storage_entry(5, c, false),
-            ],
-        })
-    })
 }
 
 /// Receiver cropping (Toromanoff 2005 alg. 12, NOTES-000 §K): the receivers' model matrices, their
@@ -441,7 +296,6 @@ impl Volumes {
             state: None,
             receivers: None,
             masked: None,
-            cull: Cull::default(),
             plans: Vec::new(),
             frames: 0,
             stats: VolumeStats::default(),
@@ -1085,9 +939,7 @@ fn method_draws(method: &Method) -> &'static [(&'static str, Counting, u64, Sele
 }
 
 impl Volumes {
-    /// The resolve; with `covered`, the pixels a wrapper overwrites afterwards are left out of a
-    /// region's culling.
-    fn resolve_with(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer, covered: Option<&Covered<'_>>) {
+    fn resolve_volumes(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
         let shared = ctx.shared;
         let device = &ctx.gpu.device;
@@ -1142,53 +994,9 @@ impl Volumes {
         let region = ctx.region_rect();
         let [_, _, rw, rh] = ctx.resolve_rect();
         let single = self.samples.len() == 1;
-        let camera = volume_camera(ctx);
-        let size = (ctx.surface.width, ctx.surface.height);
         if measure {
             ctx.encoder.clear_buffer(&state.fill, 0, None);
         }
-        // In a region, only the casters whose volumes reach it: by the region's frustum here, then
-        // by the surface actually seen there, on the GPU (`cull.wgsl`), unless a robust z-pass
-        // counted its start over the plan's casters.
-        let in_region: Option<Vec<Vec<plan::Drawn>>> = region.map(|rect| {
-            let extent = ctx.surface.shows_only_scene().then(|| ctx.live.surface_bounds());
-            self.plans
-                .iter()
-                .enumerate()
-                .map(|(i, plan)| {
-                    let source = LightSource::of_sample(self.samples[i].sample);
-                    plan::region_casters(
-                        plan,
-                        &camera,
-                        &source,
-                        &self.casters,
-                        &store.slot_of,
-                        rect,
-                        size,
-                        extent.as_ref(),
-                    )
-                })
-                .collect()
-        });
-        if in_region.is_none() {
-            // What a drag holds is freed with its last step (a whole resolve follows a release).
-            self.cull = Cull::default();
-        }
-        let culled = match &in_region {
-            Some(lists) if self.plans.iter().any(|p| !p.robust && p.method != Method::Skip) => {
-                let mut inputs = plan::CullInputs::new(store.items());
-                for (i, (plan, drawn)) in self.plans.iter().zip(lists).enumerate() {
-                    let source = LightSource::of_sample(self.samples[i].sample);
-                    let drawn: &[plan::Drawn] = if plan.robust { &[] } else { drawn };
-                    inputs.push_sample(plan, &source, &self.casters, &store.slot_of, drawn, |slot| {
-                        store.item(i as u32, slot)
-                    });
-                }
-                self.cull.record(ctx, &group0, covered, &inputs, store, self.plans.len() as u32);
-                self.cull.draws.as_ref()
-            }
-            _ => None,
-        };
         let mut draws = 0;
         for (i, plan) in self.plans.iter().enumerate() {
             let pass_offset = (i as u64 * state.pass_stride) as u32;
@@ -1239,8 +1047,8 @@ impl Volumes {
                     && scissor_to(&mut pass, region, plan.scissor.or(focus_scissor))
                 {
                     pass.set_vertex_buffer(0, store.vertices().slice(..));
-                    let casters = in_region.as_ref().map_or(&plan.casters, |lists| &lists[i]);
-                    let indirect = culled.filter(|_| !plan.robust).unwrap_or(&store.counters);
+                    let casters = &plan.casters;
+                    let indirect = &store.counters;
                     // The drawn casters' regions, as runs of consecutive slots: one multi-draw each.
                     let all = runs(casters.iter().map(|d| d.slot));
                     let listed = runs(casters.iter().filter(|d| d.zp_listed).map(|d| d.slot));
@@ -1501,11 +1309,7 @@ impl ShadowTechnique for Volumes {
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
-        self.resolve_with(ctx, out, None);
-    }
-
-    fn resolve_beneath(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer, covered: &Covered<'_>) {
-        self.resolve_with(ctx, out, Some(covered));
+        self.resolve_volumes(ctx, out);
     }
 
     /// Shown once every object's volumes were extracted (alg. 14: a light is shadowed by volumes
@@ -1572,7 +1376,7 @@ impl ShadowTechnique for Volumes {
         let receivers = self.receivers.as_ref().map_or(0, |r| r.instances.size() + r.map.bytes());
         let masked = self.masked.as_ref().map_or(0, LightMap::bytes);
         TechniqueStats {
-            memory_bytes: state.bytes + store + receivers + masked + topology + self.cull.bytes(),
+            memory_bytes: state.bytes + store + receivers + masked + topology,
             passes: if self.mask_only { 2 * n } else { 3 * n + u32::from(n > 1) },
             draws: self.stats.draws,
             triangles: self.stats.triangles.unwrap_or(0),

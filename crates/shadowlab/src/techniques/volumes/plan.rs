@@ -5,10 +5,9 @@
 
 use glam::{Vec3, Vec4};
 use shadowlab_core::Aabb;
-use shadowlab_core::convex::{ConvexBody, Plane};
 use shadowlab_core::volumes::{
-    LightSource, SphereRect, VolumeCamera, ZpPlus, box_volume_touches, crossings, shadow_hull,
-    sphere_volume_reaches_plane, sphere_volume_touches, volume_meets_body,
+    LightSource, SphereRect, VolumeCamera, ZpPlus, box_volume_touches, crossings, sphere_volume_reaches_plane,
+    sphere_volume_touches,
 };
 
 use super::geometry::{Caster, VolumeTopology};
@@ -227,141 +226,6 @@ pub(super) fn plan(settings: &Settings, frame: &FrameView<'_>, source: LightSour
     plan
 }
 
-/// The casters of `plan` whose volumes may reach the pixels `rect` (x, y, width, height) of a
-/// `width × height` surface: the plan's own culling (Hasselgren 2003 §3.3.1.2) against the
-/// frustum through that rectangle and, when every surface point is known to lie in `extent`
-/// (the scene's bounds, `SurfaceInputs::shows_only_scene`), against that frustum cut by it. A
-/// resolve limited to a region (a dragged object's footprint) counts only there, and a caster
-/// whose volumes contain no surface point of the region adds nothing to any count there,
-/// whichever the method, as long as it is left out of every draw (caps and ZP+'s start
-/// included): along a pixel's ray z-pass and ZP+ count its volumes' faces between the near
-/// plane and the surface, z-fail behind the surface, and a closed volume that does not hold the
-/// surface point is entered as often as it is left there. Only the parity mode's robust z-pass,
-/// whose start was counted at the eye over the plan's casters, keeps the frustum test alone.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn region_casters(
-    plan: &SamplePlan,
-    camera: &VolumeCamera,
-    source: &LightSource,
-    casters: &[Caster],
-    slots: &[u32],
-    rect: [u32; 4],
-    size: (u32, u32),
-    extent: Option<&Aabb>,
-) -> Vec<Drawn> {
-    let (w, h) = (size.0.max(1) as f32, size.1.max(1) as f32);
-    let [x, y, rw, rh] = rect.map(|v| v as f32);
-    let ndc = [2.0 * x / w - 1.0, 1.0 - 2.0 * (y + rh) / h, 2.0 * (x + rw) / w - 1.0, 1.0 - 2.0 * y / h];
-    let planes = camera.planes(ndc);
-    let body = extent.filter(|_| !plan.robust).map(|e| surface_body(e, &planes));
-    let mut reaches = vec![false; slots.iter().max().map_or(0, |&m| m as usize + 1)];
-    for (c, &slot) in casters.iter().zip(slots) {
-        reaches[slot as usize] = planes.iter().all(|&pl| sphere_volume_reaches_plane(source, c.centre, c.radius, pl))
-            && body.as_ref().is_none_or(|b| {
-                volume_meets_body(source, &padded(&c.bounds), b)
-                    && (c.parts.is_empty() || c.parts.iter().any(|p| volume_meets_body(source, &padded(p), b)))
-            });
-    }
-    // A slot without a caster cannot happen; drawing it is the safe side.
-    plan.casters.iter().copied().filter(|d| reaches.get(d.slot as usize).is_none_or(|&r| r)).collect()
-}
-
-/// `struct Hull` of `cull.wgsl`: the half-spaces `n·p + w ≥ 0` of a shadow hull; `count` 0 when
-/// it is unbounded.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub(super) struct GpuHull {
-    planes: [Vec4; 10],
-    count: [u32; 4],
-}
-
-/// What `cull.wgsl` tests for a region: per light sample, its drawn casters (item in the store,
-/// first hull, parts, flags) and their hulls.
-#[derive(Debug, Default)]
-pub(super) struct CullInputs {
-    /// `firsts[0]`: items in the store; sample `s`'s casters are `casters[firsts[s + 1]..firsts[s + 2]]`.
-    pub firsts: Vec<u32>,
-    pub casters: Vec<[u32; 4]>,
-    pub hulls: Vec<GpuHull>,
-}
-
-/// `KEEP` of `cull.wgsl`: drawn whatever the surface.
-const KEEP: u32 = 1;
-
-impl CullInputs {
-    pub fn new(items: u32) -> Self {
-        Self { firsts: vec![items, 0], ..Self::default() }
-    }
-
-    /// Adds the next sample's casters (`drawn`, from [`region_casters`]): each caster's box hull,
-    /// then its parts' (a caster is kept when the box hull and one part's hull meet the region's
-    /// surface, as [`region_casters`] tests against the frustum). A plain z-pass keeps the casters
-    /// its plan lists as touching the near pyramid, where its count starts (none, when `auto`
-    /// chose it); `item` gives a slot's item in the store.
-    pub fn push_sample(
-        &mut self,
-        plan: &SamplePlan,
-        source: &LightSource,
-        casters: &[Caster],
-        slots: &[u32],
-        drawn: &[Drawn],
-        item: impl Fn(u32) -> u32,
-    ) {
-        let by_slot: std::collections::HashMap<u32, &Caster> = slots.iter().copied().zip(casters).collect();
-        for d in drawn {
-            let first = self.hulls.len() as u32;
-            let keep = plan.method == Method::ZPass && d.zp_listed;
-            let Some(c) = by_slot.get(&d.slot) else {
-                // No caster in the slot: drawn, the safe side.
-                self.hulls.push(gpu_hull(None));
-                self.casters.push([item(d.slot), first, 0, KEEP]);
-                continue;
-            };
-            self.hulls.push(gpu_hull(shadow_hull(source, &padded(&c.bounds))));
-            for p in &c.parts {
-                self.hulls.push(gpu_hull(shadow_hull(source, &padded(p))));
-            }
-            self.casters.push([item(d.slot), first, c.parts.len() as u32, if keep { KEEP } else { 0 }]);
-        }
-        self.firsts.push(self.casters.len() as u32);
-    }
-}
-
-fn gpu_hull(planes: Option<Vec<Plane>>) -> GpuHull {
-    let mut hull = GpuHull { planes: [Vec4::ZERO; 10], count: [0; 4] };
-    // A hull has at most 3 faces and 6 silhouette edges; one with more (never) is unbounded.
-    if let Some(planes) = planes.filter(|p| p.len() <= 10) {
-        for (slot, p) in hull.planes.iter_mut().zip(&planes) {
-            *slot = p.n.extend(p.d);
-        }
-        hull.count[0] = planes.len() as u32;
-    }
-    hull
-}
-
-/// The surface points a frustum (`planes`, inside `≥ 0`) can see within `extent`, a little
-/// larger than both for round-off.
-fn surface_body(extent: &Aabb, planes: &[Vec4; 5]) -> ConvexBody {
-    let mut body = ConvexBody::from_aabb(&padded(extent));
-    for pl in planes {
-        let n = pl.truncate();
-        // Moved outwards by a millionth of the extent's size.
-        let slack = 1e-6 * extent.diagonal().max(1.0) * n.length();
-        body = body.clip(&Plane { n, d: pl.w + slack });
-        if body.is_empty() {
-            break;
-        }
-    }
-    body
-}
-
-/// A box a little larger (relative and absolute margins), so that round-off in the culling tests
-/// never drops a caster that touches what it is tested against.
-fn padded(b: &Aabb) -> Aabb {
-    let e = Vec3::splat(1e-4 * b.diagonal() + 1e-5);
-    Aabb::new(b.min - e, b.max + e)
-}
-
 /// The union of the focus receivers' screen rectangles (bounding spheres), within `within` (NDC
 /// [x0, y0, x1, y1]); `None` when none is on screen (Hasselgren 2003 §3.3.1.1, merged per light).
 pub(crate) fn focus_ndc(camera: &VolumeCamera, focus: &[(Vec3, f32)], within: [f32; 4]) -> Option<[f32; 4]> {
@@ -390,61 +254,6 @@ pub(crate) fn pixel_rect(ndc: [f32; 4], width: u32, height: u32) -> Option<[u32;
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The GPU's inputs: per sample, each drawn caster's item, its box hull then its parts', and
-    /// the z-pass flag; the hull planes are `shadow_hull`'s of the padded boxes.
-    #[test]
-    fn cull_inputs_list_each_casters_hulls() {
-        use shadowlab_core::{Aabb, Mobility};
-        let caster = |id: u32, min: Vec3, parts: Vec<Aabb>| Caster {
-            id: crate::live::InstanceId(id),
-            version: 0,
-            mesh: 0,
-            transform: glam::Affine3A::IDENTITY,
-            two_sided: false,
-            see_through: false,
-            mirrored: false,
-            centre: min + Vec3::splat(0.5),
-            radius: 0.9,
-            bounds: Aabb::new(min, min + Vec3::ONE),
-            parts,
-            mobility: Mobility::Static,
-        };
-        let half = |min: Vec3| Aabb::new(min, min + Vec3::new(0.5, 1.0, 1.0));
-        let casters =
-            [caster(0, Vec3::ZERO, vec![]), caster(1, Vec3::X * 3.0, vec![half(Vec3::X * 3.0), half(Vec3::X * 3.5)])];
-        let slots = [4, 7];
-        let source = LightSource::Point(Vec3::new(0.0, 10.0, 0.0));
-        let mut plan = SamplePlan {
-            method: Method::ZFail,
-            fallback: false,
-            robust: false,
-            stencil_start: 0,
-            scissor: None,
-            focus_rect: None,
-            casters: vec![],
-        };
-        let drawn = [
-            Drawn { slot: 4, zp_listed: true, see_through: false },
-            Drawn { slot: 7, zp_listed: false, see_through: false },
-        ];
-        let mut inputs = CullInputs::new(20);
-        inputs.push_sample(&plan, &source, &casters, &slots, &drawn, |slot| slot);
-        plan.method = Method::ZPass;
-        inputs.push_sample(&plan, &source, &casters, &slots, &drawn[..1], |slot| 10 + slot);
-        assert_eq!(inputs.firsts, vec![20, 0, 2, 3]);
-        // Item, first hull, parts, flags: z-fail keeps nothing by flag; z-pass the listed caster.
-        assert_eq!(inputs.casters, vec![[4, 0, 0, 0], [7, 1, 2, 0], [14, 4, 0, KEEP]]);
-        assert_eq!(inputs.hulls.len(), 5);
-        let planes = shadow_hull(&source, &padded(&casters[1].parts[1])).unwrap();
-        assert_eq!(inputs.hulls[3].count[0] as usize, planes.len());
-        assert_eq!(inputs.hulls[3].planes[0], planes[0].n.extend(planes[0].d));
-        // The light inside a box: its hull is unbounded (count 0, always met).
-        let inside = LightSource::Point(Vec3::splat(0.5));
-        let mut lit = CullInputs::new(20);
-        lit.push_sample(&plan, &inside, &casters, &slots, &drawn[..1], |slot| slot);
-        assert_eq!(lit.hulls[0].count[0], 0);
-    }
 
     #[test]
     fn pixel_rects_round_outwards_and_clamp() {

@@ -86,7 +86,9 @@ pub enum Rule {
     /// Views fitted to the camera (cascades, `cssm`), unless stabilised and still snapped alike.
     CameraFitted,
     /// The pixels the instance covered or covers on screen (its bounds before and after,
-    /// projected): a technique that resolves per pixel redoes only those.
+    /// projected): a technique that resolves per pixel redoes only those. Only on devices without
+    /// compute, where dragged objects cast nothing: elsewhere the layers are of the permanent
+    /// surface (`live::temporary::PermanentSurface`), which a drag leaves alone.
     Footprint,
 }
 
@@ -99,7 +101,7 @@ impl Rule {
             Self::Region => "those it reaches",
             Self::SameObject => "its own",
             Self::CameraFitted => "camera-fitted",
-            Self::Footprint => "its footprint",
+            Self::Footprint => "its footprint, without compute",
         }
     }
 }

@@ -735,11 +735,14 @@ impl Shadows {
             // whenever they moved.
             let (redo, moved) = match &s.resolved {
                 Some(r) if self.cache.enabled() && !rebuilt[k] && r.key == key && r.casting == casting => {
-                    let redo = match moved_footprint(&surface.camera, &r.temporaries, &temporaries) {
-                        _ if casting => Redo::Nothing,
-                        Footprint::Nothing => Redo::Nothing,
-                        Footprint::Rect(rect) if per_pixel => Redo::Region(rect),
-                        _ => Redo::Whole,
+                    let redo = if casting {
+                        Redo::Nothing
+                    } else {
+                        match moved_footprint(&surface.camera, &r.temporaries, &temporaries) {
+                            Footprint::Nothing => Redo::Nothing,
+                            Footprint::Rect(rect) if per_pixel => Redo::Region(rect),
+                            _ => Redo::Whole,
+                        }
                     };
                     (redo, r.temporaries != temporaries)
                 }

@@ -138,9 +138,10 @@ impl TemporaryShadows {
         }
     }
 
-    /// Whether any shadow-casting instance is temporary.
+    /// Whether any instance is temporary: the techniques then shadow the permanent surface and this
+    /// pass runs, for the shadows the dragged objects cast and those they receive.
     pub fn active(live: &LiveScene) -> bool {
-        live.scene().instances.iter().any(|i| i.mobility == Mobility::Temporary && i.casts_shadows)
+        live.scene().instances.iter().any(|i| i.mobility == Mobility::Temporary)
     }
 
     /// The layer techniques write into while temporary objects exist (the pass multiplies it into
@@ -167,8 +168,8 @@ impl TemporaryShadows {
     /// surface (`permanent`: what the eye would see without the dragged objects). Where the eye
     /// sees a dragged object instead, the permanent casters' hard shadow stands in for the raw
     /// layer, from maps of the whole scene drawn once (`redraw`: the raw layer was resolved again)
-    /// and kept while the drag goes on. Only the pixels their shadows may fall on are looked up
-    /// ([`shadow_footprint`]; the objects lie within it); the others are copied from the raw layer.
+    /// and kept while the drag goes on. Only the pixels the objects cover and those their shadows
+    /// may fall on ([`shadow_footprint`]) are looked up; the others are copied from the raw layer.
     pub fn apply(
         &mut self,
         ctx: &mut FrameContext<'_>,
@@ -180,17 +181,21 @@ impl TemporaryShadows {
         let size = map_size(ctx.surface.width, ctx.surface.height);
         let mut views: Vec<ShadowView> = Vec::new();
         let mut receivers = ctx.live.fit_bounds();
+        // The pixels that show a dragged object (they take the permanent casters' shadow), then
+        // those its shadow may fall on.
+        let mut footprint = Footprint::Nothing;
         for (inst, state) in ctx.live.scene().instances.iter().zip(ctx.live.instances()) {
             if inst.mobility == Mobility::Temporary {
                 receivers = receivers.union(&state.bounds);
+                footprint = footprint.union(ctx.surface.camera.footprint(&padded(&state.bounds)));
                 if inst.casts_shadows {
                     views.extend(light_frusta(ctx.light, &padded(&state.bounds), size).views);
                 }
             }
         }
-        let footprint = views.iter().fold(Footprint::Nothing, |f, v| {
-            f.union(shadow_footprint(&ctx.surface.camera, v, size, &padded(&receivers)))
-        });
+        let footprint = views
+            .iter()
+            .fold(footprint, |f, v| f.union(shadow_footprint(&ctx.surface.camera, v, size, &padded(&receivers))));
         let raw = self.raw.as_ref().expect("raw_layer comes first");
         let rect = match footprint {
             Footprint::Whole => [0, 0, ctx.surface.width, ctx.surface.height],

@@ -382,3 +382,30 @@ fn parameters_change_in_place_and_keep_the_maps_they_do_not_touch() {
     assert!(live.renderer.shadows.memory_bytes() < memory, "the 512² maps were freed");
     assert_eq!(live.frame().map_views, 0, "and then kept");
 }
+
+/// The permanent casters' maps that shadow a dragged object are kept through the drag: a light
+/// moved while the object is dragged out of sight (its pass then looks nothing up) must still
+/// redraw them before the object is dragged back into view.
+#[test]
+fn a_light_moved_while_the_dragged_object_is_out_of_sight_redraws_its_maps() {
+    let mut live = Live::new(load_scene("room").unwrap().scene, "hard:map_size=512");
+    live.check("first frame");
+    let chair = live.id("chair east");
+    live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    live.check("picked up");
+    let start = transform_of(&live, chair);
+    // Far below the floor, where neither the chair nor its shadow is seen.
+    live.renderer
+        .apply(Edit::Transform { instance: chair, transform: moved(start, Vec3::new(0.0, -40.0, 0.0)) })
+        .unwrap();
+    let w = live.check("dragged out of sight");
+    // The case: out of sight the pass draws no map (it returns before the maps).
+    assert_eq!(w.temporary_views, 0, "{w:?}");
+    let lamp = live.renderer.scene().lights[0].position().unwrap();
+    live.renderer
+        .apply(Edit::Light { light: LightId(0), change: LightChange::Position(lamp + Vec3::new(0.4, -0.2, 0.3)) })
+        .unwrap();
+    live.check("lamp moved, chair out of sight");
+    live.renderer.apply(Edit::Transform { instance: chair, transform: start }).unwrap();
+    live.check("dragged back");
+}

@@ -177,6 +177,10 @@ impl TemporaryShadows {
         permanent: &SurfaceInputs,
         redraw: bool,
     ) {
+        if redraw {
+            // Before any early return: maps drawn for the layer's old state must not outlive it.
+            self.permanent = 0;
+        }
         let shared = ctx.shared;
         let size = map_size(ctx.surface.width, ctx.surface.height);
         let mut views: Vec<ShadowView> = Vec::new();
@@ -224,7 +228,7 @@ impl TemporaryShadows {
         }
         let (maps, group) = self.maps.as_ref().expect("made above");
         let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
-        if redraw || self.permanent != p {
+        if self.permanent != p {
             maps.set_views(&ctx.gpu.queue, 0, &whole);
             for i in 0..p {
                 maps.render(ctx, i, i, &raster);

@@ -405,27 +405,30 @@ impl GpuScene {
         }
     }
 
-    /// Issues the draws of `groups` without the instance in slot `skip` (a receiver left out of
-    /// its own light map).
-    pub fn draw_except<'g>(
+    /// Issues the draws of `groups`' instances whose slot `keep` marks (a slot past its end is
+    /// left out): one draw per run of kept slots. Returns the draws.
+    pub fn draw_kept<'g>(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         groups: impl Iterator<Item = &'g DrawGroup>,
-        skip: u32,
+        keep: &[bool],
     ) -> u32 {
         let mut draws = 0;
         for g in groups {
             let m = self.meshes[g.mesh];
             let indices = m.first_index..m.first_index + m.index_count;
-            if g.instances.contains(&skip) {
-                for range in [g.instances.start..skip, skip + 1..g.instances.end] {
-                    if !range.is_empty() {
-                        pass.draw_indexed(indices.clone(), m.base_vertex, range);
-                        draws += 1;
-                    }
+            let kept = |slot: u32| keep.get(slot as usize).copied().unwrap_or(false);
+            let mut slot = g.instances.start;
+            while slot < g.instances.end {
+                if !kept(slot) {
+                    slot += 1;
+                    continue;
                 }
-            } else {
-                pass.draw_indexed(indices, m.base_vertex, g.instances.clone());
+                let start = slot;
+                while slot < g.instances.end && kept(slot) {
+                    slot += 1;
+                }
+                pass.draw_indexed(indices.clone(), m.base_vertex, start..slot);
                 draws += 1;
             }
         }

@@ -156,6 +156,53 @@ fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
     assert!(live[0].1 == fresh[0].1, "sixteen samples accumulated over frames equal sixteen at once");
 }
 
+/// A pick-up spread over frames refills the texels the chair shadowed; the chair is released
+/// elsewhere while those texels show a rung of fewer samples than the rest, so the release's
+/// refill takes them in with the chair's new shadow, and the end equals a fresh engine's exactly.
+#[test]
+fn a_release_before_a_pick_ups_refill_ends_completes_its_texels_too() {
+    use shadowlab_core::Mobility;
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let spec = TechniqueSpec::parse("lightmaps:samples=16,texel=0.05,rest=hard", &[]).unwrap();
+    r.set_technique(LightId(0), &spec).unwrap();
+    // As above: four samples a frame.
+    let costs = CostModel::scripted(&[(UnitKind::MapView, 0.1), (UnitKind::LightMapSample, 1.0)]);
+    r.shadows.script_costs(costs, 10.0);
+    r.set_target_ms(Some(16.0));
+    let settle = |r: &mut Renderer| {
+        for _ in 0..200 {
+            r.render().unwrap();
+            if r.shadows.levels()[0].2 {
+                return;
+            }
+        }
+        panic!("the light maps never completed");
+    };
+    settle(&mut r);
+    let chair = r.shadows.live().find_instance("chair east").unwrap();
+    let t = r.shadows.live().instance(chair).unwrap().transform;
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    // Until the refilled texels show a rung below all 16 samples.
+    let mut shown = 16;
+    for _ in 0..20 {
+        r.render().unwrap();
+        shown = r.shadows.levels()[0].3;
+        if shown < 16 {
+            break;
+        }
+    }
+    assert!((1..16).contains(&shown), "the pick-up's refill shows a first rung: {shown} samples");
+    let there = glam::Affine3A::from_translation(Vec3::new(-1.0, 0.0, 0.6)) * t;
+    r.apply(Edit::Transform { instance: chair, transform: there }).unwrap();
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
+    settle(&mut r);
+    let live = r.live_visibility().unwrap();
+    let fresh = r.fresh_visibility().unwrap();
+    assert!(live[0].1 == fresh[0].1, "the light maps equal a fresh engine's");
+}
+
 /// A ladder (Toromanoff §VII.2: a cheap shadow at once, better ones as they are filled): `hard`
 /// then light maps. The light shows hard shadows within the first frames, then the light maps'
 /// rungs; levels never go down in a still scene; at the end it equals a fresh engine on the same

@@ -38,6 +38,9 @@ pub struct Work {
     pub composite_views: u32,
     /// Emitter samples rendered into receiver light maps.
     pub lightmap_samples: u32,
+    /// Texels those samples covered, each counted once a sample (a refill after a caster's edit
+    /// covers only the texels the caster can change; saturates).
+    pub lightmap_texels: u32,
     /// Objects whose silhouettes and volumes were extracted for a light.
     pub volume_objects: u32,
     /// Views rendered for temporary (dragged) objects: every frame while they are dragged.
@@ -60,11 +63,12 @@ pub struct Work {
 
 impl Work {
     /// `(name, count)` of every counter, for reports.
-    pub fn counts(&self) -> [(&'static str, u32); 10] {
+    pub fn counts(&self) -> [(&'static str, u32); 11] {
         [
             ("map_views", self.map_views),
             ("composite_views", self.composite_views),
             ("lightmap_samples", self.lightmap_samples),
+            ("lightmap_texels", self.lightmap_texels),
             ("volume_objects", self.volume_objects),
             ("temporary_views", self.temporary_views),
             ("reused", self.reused),
@@ -176,6 +180,12 @@ impl ShadowCache {
     /// Whether `key` holds what `signature` describes.
     pub fn is_valid(&self, key: &ItemKey, signature: &Signature) -> bool {
         self.enabled && self.records.get(key) == Some(signature)
+    }
+
+    /// Whether `key` holds something the cache vouches for (valid or not for the present state): a
+    /// refill may then keep what an edit cannot have changed.
+    pub fn holds(&self, key: &ItemKey) -> bool {
+        self.enabled && self.records.contains_key(key)
     }
 
     /// Records that `key` now holds what `signature` describes.

@@ -1,8 +1,9 @@
 // Receiver light maps, filled one emitter sample at a time (Toromanoff 2005 alg. F–H): the casters
 // are drawn from the sample through a frustum whose far plane is the receiver's plane and whose
 // window is the receiver's rectangle, so each covered pixel IS a light-map texel in shadow; a
-// stencil marks them. Two full-screen draws then add the sample's weight w to every texel's total
-// (G) and to the lit sum (R) where no caster was drawn: V = R / G.
+// stencil marks them with the sample's number in its render pass. Two full-screen draws then add
+// the sample's weight w to every texel's total (G) and to the lit sum (R) where the stencil holds
+// another number (no caster of this sample was drawn): V = R / G.
 
 // #include "common.wgsl"
 // #include "instance.wgsl"

@@ -21,6 +21,12 @@
 //! light's emitter, the receiver's transform, the casters between them and their versions), so it
 //! is refilled only when a caster in that region, the receiver or the light changes. The receiver
 //! itself is left out of its own map (its plane is the frustum's far plane).
+//!
+//! A refill after casters alone changed covers only the texels they can shadow, before or after
+//! the edit ([`region`]): a dragged chair's pick-up refills the patch of floor its shadow was on, not
+//! the floor. Each sample draws only the casters that can cover a texel being filled, and up to 255
+//! samples share a render pass (the stencil holds the sample's number), so a fill costs about what
+//! its texels and casters do rather than a pass per sample.
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
@@ -35,12 +41,16 @@ use crate::frame::VisibilityLayer;
 use crate::gpu_scene::{INSTANCE_LAYOUT, VERTEX_LAYOUT};
 use crate::live::scheduler::UnitKind;
 use crate::live::validity::{Region, hash_values, lightmap_signature};
-use crate::live::{ItemKey, ItemKind, Signature};
+use crate::live::{InstanceId, ItemKey, ItemKind, LiveScene, Signature};
 use crate::shadowmap::PERMANENT;
 use crate::technique::{
     Compose, FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, dispatch_resolve_in,
 };
 use crate::timing::PassKind;
+
+mod region;
+
+use region::{TexelRect, changed_boxes, covered_texels};
 
 /// The techniques that may shadow the pixels off the receivers.
 const REST: &[&str] =
@@ -129,6 +139,9 @@ struct PatchUniform {
     texels: Vec4,
 }
 
+/// Emitter samples drawn in one render pass: one stencil value each, 0 for none.
+const SAMPLES_PER_PASS: usize = 255;
+
 /// Format of the light maps: R = Σ w·V, G = Σ w (blendable everywhere).
 const MAP_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const STENCIL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Stencil8;
@@ -159,13 +172,19 @@ struct State {
     /// Per patch, the light maps being accumulated over frames (a fill spread by the budget), made
     /// on first need; shown once every stale patch has reached a rung of the sample ladder.
     back: Option<(wgpu::Texture, Vec<wgpu::TextureView>)>,
-    /// Per patch: samples in its back layer, and the state they are for.
+    /// Per patch: samples in its back layer, the state they are for (with its casters' bounds),
+    /// and the texels they cover (the rest of the shown layer is right for that state already).
     accumulated: Vec<u32>,
     back_signature: Vec<Option<Signature>>,
-    /// Per patch: samples its shown layer holds (0: nothing yet), the state they are for, and
-    /// whether that is the current state with every sample.
+    back_bounds: Vec<Vec<Aabb>>,
+    back_rect: Vec<TexelRect>,
+    /// Per patch: samples its shown layer holds (0: nothing yet; the least over its texels), the
+    /// state they are for with its casters' bounds, the texels that hold fewer than every sample,
+    /// and whether that is the current state with every sample.
     front_samples: Vec<u32>,
     front_signature: Vec<Option<Signature>>,
+    front_bounds: Vec<Vec<Aabb>>,
+    front_incomplete: Vec<TexelRect>,
     front_current: Vec<bool>,
     size: (u32, u32),
     stencil: wgpu::TextureView,
@@ -252,9 +271,11 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
             depth_fail_op: wgpu::StencilOperation::Keep,
             pass_op,
         };
+        // The stencil holds which sample of the pass marked a texel last (`fill_patch`).
         let stencil_face = match which {
             "occluder" | "occluder_masked" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Replace),
             "smoothie" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Keep),
+            "lit" => face(wgpu::CompareFunction::NotEqual, wgpu::StencilOperation::Keep),
             _ => face(wgpu::CompareFunction::Equal, wgpu::StencilOperation::Keep),
         };
         let component = |operation| wgpu::BlendComponent {
@@ -298,7 +319,12 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
                 format: STENCIL_FORMAT,
                 depth_write_enabled: Some(false),
                 depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: wgpu::StencilState { front: stencil_face, back: stencil_face, read_mask: 1, write_mask: 1 },
+                stencil: wgpu::StencilState {
+                    front: stencil_face,
+                    back: stencil_face,
+                    read_mask: 0xff,
+                    write_mask: 0xff,
+                },
                 bias: Default::default(),
             }),
             multisample: Default::default(),
@@ -461,8 +487,12 @@ impl Lightmaps {
             set: ctx.cache.new_set(),
             accumulated: vec![0; n],
             back_signature: vec![None; n],
+            back_bounds: vec![Vec::new(); n],
+            back_rect: vec![TexelRect::EMPTY; n],
             front_samples: vec![0; n],
             front_signature: vec![None; n],
+            front_bounds: vec![Vec::new(); n],
+            front_incomplete: vec![TexelRect::EMPTY; n],
             front_current: vec![false; n],
             maps,
             layer_views,
@@ -517,21 +547,54 @@ impl State {
         self.back.as_ref().expect("made above").1.clone()
     }
 
-    /// Shows patch `k`'s accumulated layer: copies it over the shown one.
-    fn copy_back(&self, ctx: &mut FrameContext<'_>, k: usize) {
+    /// Shows the texels `rect` of patch `k`'s accumulated layer: copies them over the shown ones.
+    fn copy_back(&self, ctx: &mut FrameContext<'_>, k: usize, rect: TexelRect) {
         let Some((back, _)) = &self.back else { return };
+        if rect.is_empty() {
+            return;
+        }
         let at = |texture| wgpu::TexelCopyTextureInfo {
             texture,
             mip_level: 0,
-            origin: wgpu::Origin3d { x: 0, y: 0, z: k as u32 },
+            origin: wgpu::Origin3d { x: rect.x0, y: rect.y0, z: k as u32 },
             aspect: wgpu::TextureAspect::All,
         };
-        let (w, h) = self.size;
         ctx.encoder.copy_texture_to_texture(
             at(back),
             at(&self.maps),
-            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            wgpu::Extent3d { width: rect.x1 - rect.x0, height: rect.y1 - rect.y0, depth_or_array_layers: 1 },
         );
+    }
+
+    /// The texels of patch `k` to fill again for the state `signature` (`bounds`: its casters'
+    /// bounds). When the shown layer is for the same light, patch and receiver and the cache still
+    /// vouches for it (`known`), those that the casters changed since can cover through the sample
+    /// frustums `projections` ([`region`]), with those it holds incomplete; otherwise (no layer
+    /// shown yet, no frustums to bound by: `None`) all of them.
+    fn stale_texels(
+        &self,
+        k: usize,
+        signature: &Signature,
+        bounds: &[Aabb],
+        projections: Option<&[Mat4]>,
+        known: bool,
+    ) -> TexelRect {
+        let full = TexelRect::full(self.texels[k]);
+        let (Some(front), Some(projections)) = (&self.front_signature[k], projections) else { return full };
+        if !known
+            || self.front_samples[k] == 0
+            || (front.emitter, front.view, front.object) != (signature.emitter, signature.view, signature.object)
+        {
+            return full;
+        }
+        let mut rect = self.front_incomplete[k];
+        for b in changed_boxes(&front.casters, &self.front_bounds[k], &signature.casters, bounds) {
+            match covered_texels(projections, self.texels[k], &b) {
+                Some(r) => rect = rect.union(r),
+                None => return full,
+            }
+        }
+        rect
     }
 }
 
@@ -728,19 +791,63 @@ impl ShadowTechnique for Lightmaps {
                 continue;
             }
             state.front_current[k] = false;
+            let n = samples.len() as u32;
+            let unlimited = ctx.budget.is_unlimited();
+            // The texels to fill: those the changed casters reach (smoothies spread past the
+            // casters' frustum images: all of them), unless a fill spread over frames is under way
+            // for this very state.
+            let restart = unlimited || state.back_signature[k].as_ref() != Some(&signature);
+            let mut bounds = Vec::new();
+            if restart {
+                bounds = caster_bounds(ctx.live, &signature.casters);
+                let projections: Option<Vec<Mat4>> = (!smoothie_fill)
+                    .then(|| samples.iter().filter_map(|s| sample_projection(patch, &s.sample, reach)).collect());
+                let rect = state.stale_texels(k, &signature, &bounds, projections.as_deref(), ctx.cache.holds(&key));
+                if rect.is_empty() {
+                    // Nothing that changed reaches a texel: the shown layer is right as it is.
+                    ctx.cache.commit(key, signature.clone());
+                    ctx.cache.work.reused += 1;
+                    state.front_signature[k] = Some(signature);
+                    state.front_bounds[k] = bounds;
+                    state.front_current[k] = true;
+                    state.accumulated[k] = 0;
+                    state.back_signature[k] = None;
+                    continue;
+                }
+                state.back_rect[k] = rect;
+            }
             if smoothie_fill && smoothies.is_none() {
                 smoothies = Some(smoothie_set(ctx));
             }
-            let n = samples.len() as u32;
-            if ctx.budget.is_unlimited() {
-                // Every sample now, into the shown layer.
-                let target = state.layer_views[k].clone();
-                self.draws +=
-                    fill_patch(ctx, state, &target, k, patch, &samples, 0, reach, receiver.id, smoothies.as_ref());
+            let rect = state.back_rect[k];
+            if unlimited {
+                // Every sample now: into the shown layer when all of it is refilled, else into the
+                // back layer and the rectangle copied over.
+                let whole = rect == TexelRect::full((tw, th));
+                let target = if whole { state.layer_views[k].clone() } else { state.back_layers(ctx)[k].clone() };
+                self.draws += fill_patch(
+                    ctx,
+                    state,
+                    &target,
+                    k,
+                    patch,
+                    &samples,
+                    0,
+                    reach,
+                    receiver.id,
+                    smoothies.as_ref(),
+                    rect,
+                );
+                if !whole {
+                    state.copy_back(ctx, k, rect);
+                }
                 ctx.cache.commit(key, signature.clone());
                 ctx.cache.work.lightmap_samples += n;
+                add_texels(&mut ctx.cache.work, n, rect);
                 state.front_samples[k] = n;
                 state.front_signature[k] = Some(signature);
+                state.front_bounds[k] = bounds;
+                state.front_incomplete[k] = TexelRect::EMPTY;
                 state.front_current[k] = true;
                 state.accumulated[k] = 0;
                 state.back_signature[k] = None;
@@ -750,9 +857,10 @@ impl ShadowTechnique for Lightmaps {
             // Spread over frames: samples accumulate in the back layer (restarting when the state
             // they are for changed), filled below rung by rung across the stale patches.
             stale.push(k);
-            if state.back_signature[k].as_ref() != Some(&signature) {
+            if restart {
                 state.accumulated[k] = 0;
                 state.back_signature[k] = Some(signature);
+                state.back_bounds[k] = bounds;
             }
         }
         if !stale.is_empty() {
@@ -762,8 +870,8 @@ impl ShadowTechnique for Lightmaps {
             'rungs: for rung in sample_ladder(samples.len() as u32) {
                 for &k in &stale {
                     let first = state.accumulated[k] as usize;
-                    let (w, h) = texels(&self.params, &state.patches[k]);
-                    let size = u64::from(w) * u64::from(h);
+                    let rect = state.back_rect[k];
+                    let size = rect.area();
                     let mut count = 0;
                     while first + count < rung as usize
                         && ctx.take_units(UnitKind::LightMapSample, size, per_unit as u32)
@@ -786,9 +894,11 @@ impl ShadowTechnique for Lightmaps {
                             reach,
                             receiver,
                             smoothies.as_ref(),
+                            rect,
                         );
                         state.accumulated[k] += count as u32;
                         ctx.cache.work.lightmap_samples += count as u32;
+                        add_texels(&mut ctx.cache.work, count as u32, rect);
                     }
                     if state.accumulated[k] < rung {
                         break 'rungs;
@@ -806,9 +916,15 @@ impl ShadowTechnique for Lightmaps {
                     // Every stale patch has reached the rung: each shows all it has accumulated.
                     let newer = state.front_signature[k] != state.back_signature[k];
                     if newer || state.front_samples[k] < state.accumulated[k] {
-                        state.copy_back(ctx, k);
+                        state.copy_back(ctx, k, state.back_rect[k]);
                         state.front_samples[k] = state.accumulated[k];
                         state.front_signature[k] = state.back_signature[k].clone();
+                        state.front_bounds[k] = state.back_bounds[k].clone();
+                        state.front_incomplete[k] = if state.accumulated[k] == samples.len() as u32 {
+                            TexelRect::EMPTY
+                        } else {
+                            state.back_rect[k]
+                        };
                         self.filled += 1;
                     }
                     if state.accumulated[k] == samples.len() as u32 {
@@ -905,7 +1021,21 @@ impl ShadowTechnique for Lightmaps {
     }
 }
 
-/// Fills patch `k`'s light map from every sample (the receiver `skip` left out). Returns the draws.
+/// The bounds of `casters` as they are now (empty for one no longer in the scene).
+fn caster_bounds(live: &LiveScene, casters: &[(InstanceId, u64)]) -> Vec<Aabb> {
+    let by_id: std::collections::HashMap<InstanceId, Aabb> =
+        live.instances().iter().map(|s| (s.id, s.bounds)).collect();
+    casters.iter().map(|(id, _)| by_id.get(id).copied().unwrap_or(Aabb::EMPTY)).collect()
+}
+
+/// Counts `samples` samples' texels over `rect`.
+fn add_texels(work: &mut crate::live::Work, samples: u32, rect: TexelRect) {
+    let texels = u64::from(samples) * rect.area();
+    work.lightmap_texels = work.lightmap_texels.saturating_add(u32::try_from(texels).unwrap_or(u32::MAX));
+}
+
+/// Fills the texels `rect` of patch `k`'s light map from `samples` (the receiver `skip` left out;
+/// the first sample clears the whole layer). Returns the draws.
 #[allow(clippy::too_many_arguments)]
 fn fill_patch(
     ctx: &mut FrameContext<'_>,
@@ -918,18 +1048,29 @@ fn fill_patch(
     reach: f32,
     skip: crate::live::InstanceId,
     smoothies: Option<&SmoothieSet>,
+    rect: TexelRect,
 ) -> u32 {
     let shared = ctx.shared;
     let (tw, th) = state.texels[k];
     let centre = ctx.light.position().unwrap_or(Vec3::ZERO);
     let directional = ctx.light.direction().filter(|_| ctx.light.position().is_none());
     let emitter = super::smoothies::emitter_size(ctx.light);
-    let skip_slot = ctx.live.instance_index(skip).and_then(|i| ctx.gpu_scene.slots.get(i).copied()).unwrap_or(u32::MAX);
+    // The permanent casters (the receiver left out), by instance-buffer slot, with their bounds.
+    let skip_index = ctx.live.instance_index(skip);
+    let casters: Vec<(u32, Aabb)> = ctx
+        .scene
+        .instances
+        .iter()
+        .enumerate()
+        .filter(|&(i, inst)| inst.casts_shadows && PERMANENT.contains(&inst.mobility) && Some(i) != skip_index)
+        .filter_map(|(i, _)| Some((*ctx.gpu_scene.slots.get(i)?, ctx.live.instances().get(i)?.bounds)))
+        .collect();
+    let mut keep = vec![false; casters.iter().map(|c| c.0 as usize + 1).max().unwrap_or(0)];
     let (occluder, lit, shadowed) =
         (fill_pipeline(shared, "occluder"), fill_pipeline(shared, "lit"), fill_pipeline(shared, "shadowed"));
-    let mut draws = 0;
+    let projections: Vec<Option<Mat4>> = samples.iter().map(|s| sample_projection(patch, &s.sample, reach)).collect();
     for (j, s) in samples.iter().enumerate() {
-        let projection = sample_projection(patch, &s.sample, reach);
+        let projection = projections[j];
         let u = FillUniform {
             projection: projection.unwrap_or(Mat4::IDENTITY),
             origin: patch.origin.extend(patch.width),
@@ -945,21 +1086,29 @@ fn fill_patch(
         };
         let slot = (k * state.samples_per_patch + first + j) as u64 * state.fill_stride;
         ctx.gpu.queue.write_buffer(&state.fills, slot, bytemuck::bytes_of(&u));
+    }
+    let mut draws = 0;
+    // Up to 255 samples share a render pass: sample j's casters mark the stencil with j + 1, and
+    // its sums read "marked j + 1" as shadowed, anything else as lit, so the stencil need not be
+    // cleared between them (a pass of its own per sample cost more than its draws on a CPU
+    // rasteriser).
+    for (c, chunk) in samples.chunks(SAMPLES_PER_PASS).enumerate() {
+        let at = c * SAMPLES_PER_PASS;
         // Sums start at 0; the smoothie fill's least visibility starts at (1, 1): lit.
-        let clear = match (smoothies, projection) {
+        let clear = match (smoothies, projections[at]) {
             (Some(_), Some(_)) => wgpu::Color { r: 1.0, g: 1.0, b: 0.0, a: 0.0 },
             (Some(_), None) => wgpu::Color { r: 0.0, g: 1.0, b: 0.0, a: 0.0 },
             (None, _) => wgpu::Color::TRANSPARENT,
         };
         let timestamps = ctx.timer.render_pass(&ctx.gpu.device, PassKind::Shadow);
         let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("light map sample"),
+            label: Some("light map samples"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                 view: target,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: if first + j == 0 { wgpu::LoadOp::Clear(clear) } else { wgpu::LoadOp::Load },
+                    load: if first + at == 0 { wgpu::LoadOp::Clear(clear) } else { wgpu::LoadOp::Load },
                     store: wgpu::StoreOp::Store,
                 },
             })],
@@ -973,49 +1122,59 @@ fn fill_patch(
             multiview_mask: None,
         });
         pass.set_viewport(0.0, 0.0, tw as f32, th as f32, 0.0, 1.0);
-        pass.set_scissor_rect(0, 0, tw, th);
-        pass.set_bind_group(0, Some(&state.fill_group), &[slot as u32]);
-        if projection.is_some() {
-            pass.set_stencil_reference(1);
-            ctx.gpu_scene.bind(&mut pass);
-            // Opaque casters in one go; alpha-masked ones group by group, each with its mask.
-            pass.set_pipeline(&occluder);
-            let opaque = ctx.gpu_scene.casters(PERMANENT).filter(|g| g.mask.is_none());
-            draws += ctx.gpu_scene.draw_except(&mut pass, opaque, skip_slot);
-            if let Some(masks) = &ctx.gpu_scene.masks {
-                pass.set_pipeline(&fill_pipeline(shared, "occluder_masked"));
-                for g in ctx.gpu_scene.casters(PERMANENT) {
-                    let Some(k) = g.mask else { continue };
-                    pass.set_bind_group(1, Some(&masks.group), &[k * masks.stride]);
-                    draws += ctx.gpu_scene.draw_except(&mut pass, std::iter::once(g), skip_slot);
+        // The viewport is the whole map's, so texels are the same wherever the scissor cuts.
+        pass.set_scissor_rect(rect.x0, rect.y0, rect.x1.min(tw) - rect.x0, rect.y1.min(th) - rect.y0);
+        for j in 0..chunk.len() {
+            let projection = projections[at + j];
+            let slot = (k * state.samples_per_patch + first + at + j) as u64 * state.fill_stride;
+            let mark = j as u32 + 1;
+            pass.set_bind_group(0, Some(&state.fill_group), &[slot as u32]);
+            pass.set_stencil_reference(mark);
+            if let Some(projection) = projection {
+                // Only the casters that can cover a texel of `rect` from this sample: the others
+                // would mark nothing there (the stencil's marks do not depend on drawing order).
+                keep.fill(false);
+                for &(slot, bounds) in &casters {
+                    let covered = covered_texels(&[projection], (tw, th), &bounds).is_none_or(|r| r.meets(&rect));
+                    keep[slot as usize] = covered;
                 }
-            }
-        }
-        if let Some(set) = smoothies {
-            // The smoothies (outside the receiver), then the umbra, each keeping the least value.
-            if projection.is_some() {
-                pass.set_pipeline(&fill_pipeline(shared, "smoothie"));
-                pass.set_vertex_buffer(0, set.buffer.slice(..));
-                for (instance, range) in &set.ranges {
-                    if Some(*instance) != ctx.live.instance_index(skip) && !range.is_empty() {
-                        pass.draw(range.clone(), 0..1);
-                        draws += 1;
+                ctx.gpu_scene.bind(&mut pass);
+                // Opaque casters in one go; alpha-masked ones group by group, each with its mask.
+                pass.set_pipeline(&occluder);
+                let opaque = ctx.gpu_scene.casters(PERMANENT).filter(|g| g.mask.is_none());
+                draws += ctx.gpu_scene.draw_kept(&mut pass, opaque, &keep);
+                if let Some(masks) = &ctx.gpu_scene.masks {
+                    pass.set_pipeline(&fill_pipeline(shared, "occluder_masked"));
+                    for g in ctx.gpu_scene.casters(PERMANENT) {
+                        let Some(k) = g.mask else { continue };
+                        pass.set_bind_group(1, Some(&masks.group), &[k * masks.stride]);
+                        draws += ctx.gpu_scene.draw_kept(&mut pass, std::iter::once(g), &keep);
                     }
                 }
-                pass.set_pipeline(&fill_pipeline(shared, "umbra"));
-                pass.set_stencil_reference(1);
-                pass.draw(0..3, 0..1);
-                draws += 1;
             }
-            continue;
+            if let Some(set) = smoothies {
+                // The smoothies (outside the receiver), then the umbra, each keeping the least value.
+                if projection.is_some() {
+                    pass.set_pipeline(&fill_pipeline(shared, "smoothie"));
+                    pass.set_vertex_buffer(0, set.buffer.slice(..));
+                    for (instance, range) in &set.ranges {
+                        if Some(*instance) != skip_index && !range.is_empty() {
+                            pass.draw(range.clone(), 0..1);
+                            draws += 1;
+                        }
+                    }
+                    pass.set_pipeline(&fill_pipeline(shared, "umbra"));
+                    pass.draw(0..3, 0..1);
+                    draws += 1;
+                }
+                continue;
+            }
+            pass.set_pipeline(&lit);
+            pass.draw(0..3, 0..1);
+            pass.set_pipeline(&shadowed);
+            pass.draw(0..3, 0..1);
+            draws += 2;
         }
-        pass.set_pipeline(&lit);
-        pass.set_stencil_reference(0);
-        pass.draw(0..3, 0..1);
-        pass.set_pipeline(&shadowed);
-        pass.set_stencil_reference(1);
-        pass.draw(0..3, 0..1);
-        draws += 2;
     }
     draws
 }

@@ -130,14 +130,7 @@ fn light_maps_follow_moved_receivers_as_a_fresh_engine_does() {
     use glam::{Affine3A, Vec3};
     use shadowlab::live::Edit;
     use shadowlab_core::Role;
-    let gpu = gpu();
-    let scene = load_scene("room").unwrap().scene;
-    let view = scene.view("default").unwrap().clone();
-    let mut r = Renderer::new(&gpu, scene.clone(), &view, 64, 48);
-    let spec = TechniqueSpec::parse("lightmaps:samples=4,texel=0.05,rest=hard", &[]).unwrap();
-    for l in 0..scene.lights.len() as u32 {
-        r.set_technique(LightId(l), &spec).unwrap();
-    }
+    let mut r = room_with("lightmaps:samples=4,texel=0.05,rest=hard");
     r.render().unwrap();
     // The floor: the furniture's shadows fall on it, so a stale rectangle would show.
     let live = r.shadows.live();
@@ -180,14 +173,7 @@ fn a_casters_edit_refills_only_the_texels_it_can_shadow() {
     use glam::{Affine3A, Vec3};
     use shadowlab::live::Edit;
     use shadowlab_core::Mobility;
-    let gpu = gpu();
-    let scene = load_scene("room").unwrap().scene;
-    let view = scene.view("default").unwrap().clone();
-    let mut r = Renderer::new(&gpu, scene.clone(), &view, 64, 48);
-    let spec = TechniqueSpec::parse("lightmaps:samples=9,texel=0.05,rest=hard", &[]).unwrap();
-    for l in 0..scene.lights.len() as u32 {
-        r.set_technique(LightId(l), &spec).unwrap();
-    }
+    let mut r = room_with("lightmaps:samples=9,texel=0.05,rest=hard");
     let first = r.render().unwrap().work;
     let per_sample = |w: &shadowlab::live::Work| f64::from(w.lightmap_texels) / f64::from(w.lightmap_samples.max(1));
     let full = per_sample(&first);
@@ -225,4 +211,16 @@ fn a_casters_edit_refills_only_the_texels_it_can_shadow() {
             assert!(a == b, "{what}: light {l} differs from a fresh engine");
         }
     }
+}
+
+/// `room` at 64 × 48 from its default view, `spec` on every light.
+fn room_with(spec: &str) -> Renderer {
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene.clone(), &view, 64, 48);
+    let spec = TechniqueSpec::parse(spec, &[]).unwrap();
+    for l in 0..scene.lights.len() as u32 {
+        r.set_technique(LightId(l), &spec).unwrap();
+    }
+    r
 }

@@ -117,21 +117,27 @@ fn a_moved_chair_shows_its_old_shadows_until_all_new_views_are_done() {
     assert!(frames >= 2 && rendered as usize >= frames - 1, "{frames} frames, {rendered} views");
 }
 
-/// Light maps filled a few samples a frame: the light shows `rest`'s shadows until every lit
-/// receiver has four samples, then climbs the ladder (4, 16 samples) without ever going down, and
-/// ends exactly where a fresh engine filling everything at once does (same samples, same order).
-#[test]
-fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
+/// Room, 16-sample light maps (`hard` elsewhere) on the ceiling lamp. Map views cost 0.1 ms (the
+/// rest's six faces in the first frame), samples 1 ms, rendering 10 ms: a 16 ms target leaves
+/// 4.4 ms, four samples a frame.
+fn sliced_light_maps() -> Renderer {
     let scene = load_scene("room").unwrap().scene;
     let view = scene.view("default").unwrap().clone();
     let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
     let spec = TechniqueSpec::parse("lightmaps:samples=16,texel=0.05,rest=hard", &[]).unwrap();
     r.set_technique(LightId(0), &spec).unwrap();
-    // Map views 0.1 ms (the rest's six faces in the first frame), samples 1 ms, render 10 ms: a
-    // 16 ms target leaves 4.4 ms, four samples a frame.
     let costs = CostModel::scripted(&[(UnitKind::MapView, 0.1), (UnitKind::LightMapSample, 1.0)]);
     r.shadows.script_costs(costs, 10.0);
     r.set_target_ms(Some(16.0));
+    r
+}
+
+/// Light maps filled a few samples a frame: the light shows `rest`'s shadows until every lit
+/// receiver has four samples, then climbs the ladder (4, 16 samples) without ever going down, and
+/// ends exactly where a fresh engine filling everything at once does (same samples, same order).
+#[test]
+fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
+    let mut r = sliced_light_maps();
     let mut seen = Vec::new();
     for frame in 0..200 {
         let w = r.render().unwrap().work;
@@ -162,15 +168,7 @@ fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
 #[test]
 fn a_release_before_a_pick_ups_refill_ends_completes_its_texels_too() {
     use shadowlab_core::Mobility;
-    let scene = load_scene("room").unwrap().scene;
-    let view = scene.view("default").unwrap().clone();
-    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
-    let spec = TechniqueSpec::parse("lightmaps:samples=16,texel=0.05,rest=hard", &[]).unwrap();
-    r.set_technique(LightId(0), &spec).unwrap();
-    // As above: four samples a frame.
-    let costs = CostModel::scripted(&[(UnitKind::MapView, 0.1), (UnitKind::LightMapSample, 1.0)]);
-    r.shadows.script_costs(costs, 10.0);
-    r.set_target_ms(Some(16.0));
+    let mut r = sliced_light_maps();
     let settle = |r: &mut Renderer| {
         for _ in 0..200 {
             r.render().unwrap();

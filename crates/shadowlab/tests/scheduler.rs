@@ -121,15 +121,41 @@ fn a_moved_chair_shows_its_old_shadows_until_all_new_views_are_done() {
 /// rest's six faces in the first frame), samples 1 ms, rendering 10 ms: a 16 ms target leaves
 /// 4.4 ms, four samples a frame.
 fn sliced_light_maps() -> Renderer {
+    sliced_light_maps_of(16, 16.0)
+}
+
+/// As [`sliced_light_maps`], with `samples` emitter samples and a target of `target_ms`.
+fn sliced_light_maps_of(samples: u32, target_ms: f64) -> Renderer {
     let scene = load_scene("room").unwrap().scene;
     let view = scene.view("default").unwrap().clone();
     let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
-    let spec = TechniqueSpec::parse("lightmaps:samples=16,texel=0.05,rest=hard", &[]).unwrap();
+    let spec = TechniqueSpec::parse(&format!("lightmaps:samples={samples},texel=0.05,rest=hard"), &[]).unwrap();
     r.set_technique(LightId(0), &spec).unwrap();
     let costs = CostModel::scripted(&[(UnitKind::MapView, 0.1), (UnitKind::LightMapSample, 1.0)]);
     r.shadows.script_costs(costs, 10.0);
-    r.set_target_ms(Some(16.0));
+    r.set_target_ms(Some(target_ms));
     r
+}
+
+/// Up to 255 samples share a render pass, each marking the stencil with its number there. 300
+/// samples filled over frames, about 100 a frame (a 130 ms target leaves 107 ms), end exactly
+/// where a fresh engine's fill of all 300 at once does (a pass of 255 and one of 45). With one
+/// mark for every sample of a pass (each reading the earlier ones' shadows as its own) the two
+/// differ: checked by making the change.
+#[test]
+fn more_samples_than_a_pass_holds_add_up_as_over_frames() {
+    let mut r = sliced_light_maps_of(300, 130.0);
+    let mut frames = 0;
+    while !r.shadows.levels()[0].2 {
+        let w = r.render().unwrap().work;
+        assert!(w.lightmap_samples <= 108, "frame {frames}: {w:?}");
+        frames += 1;
+        assert!(frames < 60, "the light maps never completed");
+    }
+    assert_eq!(r.shadows.levels()[0].3, 300);
+    let live = r.live_visibility().unwrap();
+    let fresh = r.fresh_visibility().unwrap();
+    assert!(live[0].1 == fresh[0].1, "300 samples over frames equal 300 at once");
 }
 
 /// Light maps filled a few samples a frame: the light shows `rest`'s shadows until every lit

@@ -60,8 +60,9 @@ fn soft_shadows_render_on_gl() {
     // 12 samples: a layer count that GL would take for a cube-map array without padding.
     // RMSE against the reference measured on llvmpipe GL at 64²: pcss 0.0122, blurred 0.0450,
     // smoothies 0.0879, sampled(12, array) 0.0205 (0.2+ when GL read the maps as a cube array),
-    // cssm 0.0129, ssm (pyramid, contours, pull-push through GL compute) 0.0036. Bounds: about 1.5
-    // times those.
+    // cssm 0.0129, ssm (pyramid, contours, pull-push through GL compute) 0.0036, lightmaps (16
+    // samples a render pass, each numbering its stencil marks; the rest `hard`) 0.0143. Bounds:
+    // about 1.5 times those.
     let cases = [
         ("pcss", 0.02),
         ("blurred", 0.07),
@@ -69,6 +70,7 @@ fn soft_shadows_render_on_gl() {
         ("sampled:samples=12,mode=array", 0.03),
         ("cssm", 0.02),
         ("ssm", 0.006),
+        ("lightmaps:samples=16,rest=hard", 0.022),
     ];
     for (spec, bound) in cases {
         let run = common::render(&gpu, &scene, &view, 64, spec, &[LightId(0)]);

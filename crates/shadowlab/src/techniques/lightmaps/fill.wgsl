@@ -128,3 +128,9 @@ fn smoothie_fs(in: SmoothieOut) -> @location(0) vec4<f32> {
 fn umbra_fs() -> @location(0) vec4<f32> {
     return vec4<f32>(0.0, 1.0, 0.0, 0.0);
 }
+
+// The sums' start where a scissor limits a refill (a load op would clear the whole layer).
+@fragment
+fn zero_fs() -> @location(0) vec4<f32> {
+    return vec4<f32>(0.0);
+}

@@ -251,7 +251,8 @@ fn fill_layout(shared: &Shared) -> wgpu::BindGroupLayout {
 }
 
 /// The fill pipelines: casters into the stencil (`occluder`); the lit and the shadowed texels'
-/// sums (`lit`, `shadowed`: additive); smoothies and the umbra (`smoothie`, `umbra`: least value).
+/// sums (`lit`, `shadowed`: additive); smoothies and the umbra (`smoothie`, `umbra`: least value);
+/// the sums' start within a scissor (`zero`: a load op clears the whole layer).
 fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
     shared.render_pipeline(&format!("lightmaps {which}"), || {
         let device = &shared.gpu.device;
@@ -274,7 +275,7 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
         // The stencil holds which sample of the pass marked a texel last (`fill_patch`).
         let stencil_face = match which {
             "occluder" | "occluder_masked" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Replace),
-            "smoothie" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Keep),
+            "smoothie" | "zero" => face(wgpu::CompareFunction::Always, wgpu::StencilOperation::Keep),
             "lit" => face(wgpu::CompareFunction::NotEqual, wgpu::StencilOperation::Keep),
             _ => face(wgpu::CompareFunction::Equal, wgpu::StencilOperation::Keep),
         };
@@ -284,7 +285,7 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
             operation,
         };
         let blend = match which {
-            "occluder" | "occluder_masked" => None,
+            "occluder" | "occluder_masked" | "zero" => None,
             "smoothie" | "umbra" => Some(wgpu::BlendState {
                 color: component(wgpu::BlendOperation::Min),
                 alpha: component(wgpu::BlendOperation::Min),
@@ -336,6 +337,7 @@ fn fill_pipeline(shared: &Shared, which: &str) -> wgpu::RenderPipeline {
                     "lit" => "lit_fs",
                     "smoothie" => "smoothie_fs",
                     "umbra" => "umbra_fs",
+                    "zero" => "zero_fs",
                     _ => "shadowed_fs",
                 }),
                 compilation_options: Default::default(),
@@ -821,10 +823,8 @@ impl ShadowTechnique for Lightmaps {
             }
             let rect = state.back_rect[k];
             if unlimited {
-                // Every sample now: into the shown layer when all of it is refilled, else into the
-                // back layer and the rectangle copied over.
-                let whole = rect == TexelRect::full((tw, th));
-                let target = if whole { state.layer_views[k].clone() } else { state.back_layers(ctx)[k].clone() };
+                // Every sample now, into the shown layer.
+                let target = state.layer_views[k].clone();
                 self.draws += fill_patch(
                     ctx,
                     state,
@@ -838,9 +838,6 @@ impl ShadowTechnique for Lightmaps {
                     smoothies.as_ref(),
                     rect,
                 );
-                if !whole {
-                    state.copy_back(ctx, k, rect);
-                }
                 ctx.cache.commit(key, signature.clone());
                 ctx.cache.work.lightmap_samples += n;
                 add_texels(&mut ctx.cache.work, n, rect);
@@ -1034,8 +1031,9 @@ fn add_texels(work: &mut crate::live::Work, samples: u32, rect: TexelRect) {
     work.lightmap_texels = work.lightmap_texels.saturating_add(u32::try_from(texels).unwrap_or(u32::MAX));
 }
 
-/// Fills the texels `rect` of patch `k`'s light map from `samples` (the receiver `skip` left out;
-/// the first sample clears the whole layer). Returns the draws.
+/// Fills the texels `rect` of patch `k`'s light map in `target` from `samples` (the receiver `skip`
+/// left out); from the first sample, `rect` starts from nothing (the whole layer when `rect` is
+/// all of it) and the texels outside it keep what they hold. Returns the draws.
 #[allow(clippy::too_many_arguments)]
 fn fill_patch(
     ctx: &mut FrameContext<'_>,
@@ -1088,6 +1086,8 @@ fn fill_patch(
         ctx.gpu.queue.write_buffer(&state.fills, slot, bytemuck::bytes_of(&u));
     }
     let mut draws = 0;
+    // Smoothie fills (least values from 1) are always whole.
+    let whole = rect == TexelRect::full((tw, th)) || smoothies.is_some();
     // Up to 255 samples share a render pass: sample j's casters mark the stencil with j + 1, and
     // its sums read "marked j + 1" as shadowed, anything else as lit, so the stencil need not be
     // cleared between them (a pass of its own per sample cost more than its draws on a CPU
@@ -1108,7 +1108,7 @@ fn fill_patch(
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: if first + at == 0 { wgpu::LoadOp::Clear(clear) } else { wgpu::LoadOp::Load },
+                    load: if first + at == 0 && whole { wgpu::LoadOp::Clear(clear) } else { wgpu::LoadOp::Load },
                     store: wgpu::StoreOp::Store,
                 },
             })],
@@ -1124,6 +1124,13 @@ fn fill_patch(
         pass.set_viewport(0.0, 0.0, tw as f32, th as f32, 0.0, 1.0);
         // The viewport is the whole map's, so texels are the same wherever the scissor cuts.
         pass.set_scissor_rect(rect.x0, rect.y0, rect.x1.min(tw) - rect.x0, rect.y1.min(th) - rect.y0);
+        if first + at == 0 && !whole {
+            // The sums start at 0 within the rectangle; the texels outside keep theirs.
+            pass.set_pipeline(&fill_pipeline(shared, "zero"));
+            pass.set_bind_group(0, Some(&state.fill_group), &[0]);
+            pass.draw(0..3, 0..1);
+            draws += 1;
+        }
         for j in 0..chunk.len() {
             let projection = projections[at + j];
             let slot = (k * state.samples_per_patch + first + at + j) as u64 * state.fill_stride;

@@ -25,6 +25,11 @@ fn sliced() -> Renderer {
     r
 }
 
+/// Whether the first shadowed light's visibility equals a fresh engine's exactly.
+fn first_light_equals_fresh(r: &Renderer) -> bool {
+    r.live_visibility().unwrap()[0].1 == r.fresh_visibility().unwrap()[0].1
+}
+
 fn visibility(r: &Renderer) -> Vec<Vec<f32>> {
     r.live_visibility().unwrap().into_iter().map(|(_, v)| v).collect()
 }
@@ -153,9 +158,7 @@ fn more_samples_than_a_pass_holds_add_up_as_over_frames() {
         assert!(frames < 60, "the light maps never completed");
     }
     assert_eq!(r.shadows.levels()[0].3, 300);
-    let live = r.live_visibility().unwrap();
-    let fresh = r.fresh_visibility().unwrap();
-    assert!(live[0].1 == fresh[0].1, "300 samples over frames equal 300 at once");
+    assert!(first_light_equals_fresh(&r), "300 samples over frames equal 300 at once");
 }
 
 /// Light maps filled a few samples a frame: the light shows `rest`'s shadows until every lit
@@ -183,9 +186,7 @@ fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
     assert_eq!(levels.first(), Some(&1));
     assert!(levels.contains(&2) && levels.last() == Some(&3), "{levels:?}");
     assert_eq!(seen.last().unwrap().1, 16);
-    let live = r.live_visibility().unwrap();
-    let fresh = r.fresh_visibility().unwrap();
-    assert!(live[0].1 == fresh[0].1, "sixteen samples accumulated over frames equal sixteen at once");
+    assert!(first_light_equals_fresh(&r), "sixteen samples accumulated over frames equal sixteen at once");
 }
 
 /// A pick-up spread over frames refills the texels the chair shadowed; the chair is released
@@ -222,9 +223,7 @@ fn a_release_before_a_pick_ups_refill_ends_completes_its_texels_too() {
     r.apply(Edit::Transform { instance: chair, transform: there }).unwrap();
     r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
     settle(&mut r);
-    let live = r.live_visibility().unwrap();
-    let fresh = r.fresh_visibility().unwrap();
-    assert!(live[0].1 == fresh[0].1, "the light maps equal a fresh engine's");
+    assert!(first_light_equals_fresh(&r), "the light maps equal a fresh engine's");
 }
 
 /// A ladder (Toromanoff §VII.2: a cheap shadow at once, better ones as they are filled): `hard`

@@ -74,8 +74,15 @@ fn panel(ui: &mut egui::Ui, viewer: &mut Viewer, requests: &mut Requests) {
         ui.label(format!("frame: GPU {gpu} · CPU {:.2} ms", r.cpu_ms));
         let w = &r.work;
         ui.label(format!(
-            "re-done: {} map views, {} light-map samples, {} volume objects, {} resolves ({} in a region), {} reused",
-            w.map_views, w.lightmap_samples, w.volume_objects, w.resolves, w.region_resolves, w.reused
+            "re-done: {} map views, {} light-map samples ({:.2} M texels), {} volume objects, {} resolves ({} in a \
+             region), {} reused",
+            w.map_views,
+            w.lightmap_samples,
+            f64::from(w.lightmap_texels) / 1e6,
+            w.volume_objects,
+            w.resolves,
+            w.region_resolves,
+            w.reused
         ));
     }
     if let Some(name) = viewer.dragging() {

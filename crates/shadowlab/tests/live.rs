@@ -79,6 +79,12 @@ impl Live {
         self.renderer.apply(Edit::AddInstance(Box::new(instance))).unwrap()
     }
 
+    /// Moves the first light by `by`.
+    fn move_first_light(&mut self, by: Vec3) {
+        let lamp = self.renderer.scene().lights[0].position().unwrap();
+        self.renderer.apply(Edit::Light { light: LightId(0), change: LightChange::Position(lamp + by) }).unwrap();
+    }
+
     /// Renders a frame and checks it against a fresh engine; returns the frame's work.
     fn check(&mut self, what: &str) -> Work {
         let work = self.frame();
@@ -191,10 +197,7 @@ fn every_edit_leaves_the_live_engine_equal_to_a_fresh_one() {
         let w = live.check("intensity");
         assert!(!keeps_everything || !w.rebuilt_anything(), "{spec}: an intensity change re-renders {w:?}");
 
-        let lamp = live.renderer.scene().lights[0].position().unwrap();
-        live.renderer
-            .apply(Edit::Light { light: LightId(0), change: LightChange::Position(lamp + Vec3::new(0.3, -0.1, 0.2)) })
-            .unwrap();
+        live.move_first_light(Vec3::new(0.3, -0.1, 0.2));
         live.check("lamp moved");
         live.renderer.apply(Edit::Light { light: LightId(0), change: LightChange::Radius(0.05) }).unwrap();
         live.check("lamp resized");
@@ -266,10 +269,7 @@ fn volumes_re_extract_only_the_objects_and_lights_that_changed() {
     let w = live.check("colour");
     assert_eq!(w.volume_objects, 0, "a colour change extracts {w:?}");
 
-    let lamp = live.renderer.scene().lights[0].position().unwrap();
-    live.renderer
-        .apply(Edit::Light { light: LightId(0), change: LightChange::Position(lamp + Vec3::new(0.3, -0.1, 0.2)) })
-        .unwrap();
+    live.move_first_light(Vec3::new(0.3, -0.1, 0.2));
     let w = live.check("lamp moved");
     // Every caster for the moved lamp's samples, nothing for the other lights.
     assert_eq!(w.volume_objects, casters * samples[0], "moving a light extracts {w:?}");
@@ -403,10 +403,7 @@ fn a_light_moved_while_the_dragged_object_is_out_of_sight_redraws_its_maps() {
     let w = live.check("dragged out of sight");
     // The case: out of sight the pass draws no map (it returns before the maps).
     assert_eq!(w.temporary_views, 0, "{w:?}");
-    let lamp = live.renderer.scene().lights[0].position().unwrap();
-    live.renderer
-        .apply(Edit::Light { light: LightId(0), change: LightChange::Position(lamp + Vec3::new(0.4, -0.2, 0.3)) })
-        .unwrap();
+    live.move_first_light(Vec3::new(0.4, -0.2, 0.3));
     live.check("lamp moved, chair out of sight");
     live.renderer.apply(Edit::Transform { instance: chair, transform: start }).unwrap();
     live.check("dragged back");

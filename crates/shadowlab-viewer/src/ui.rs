@@ -84,6 +84,9 @@ fn panel(ui: &mut egui::Ui, viewer: &mut Viewer, requests: &mut Requests) {
             w.region_resolves,
             w.reused
         ));
+        if w.held_lights > 0 {
+            ui.label(format!("{} lights wait their turn for the dragged objects' pass", w.held_lights));
+        }
     }
     if let Some(name) = viewer.dragging() {
         ui.label(format!("dragging '{name}' (temporary: the caches leave it out)"));

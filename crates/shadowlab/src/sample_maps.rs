@@ -250,7 +250,7 @@ impl SampleMaps {
     /// layer; at the next [`SampleMaps::update`] for cached ones).
     pub fn set_views(&mut self, queue: &wgpu::Queue, frusta: &[LightFrusta]) {
         self.views = frusta.iter().flat_map(|f| f.views.iter().copied()).collect();
-        if let SampleStorage::Shared(maps) = &self.storage {
+        if let SampleStorage::Shared(maps) = &mut self.storage {
             let faces = self.faces.max(1);
             let layers: Vec<u32> = (0..self.views.len() as u32).map(|slot| slot % faces).collect();
             maps.set_views_in(queue, 0, &self.views, &layers);

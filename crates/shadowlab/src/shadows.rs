@@ -8,7 +8,7 @@
 //! lights whose colour or emitter changed, and lets every technique re-render only the items whose
 //! signatures changed (DESIGN.md §11).
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::hash::{Hash, Hasher};
 
 use shadowlab_core::{LightId, Scene};
@@ -74,19 +74,25 @@ pub(crate) struct LightShadow {
     /// upgrades (see [`ShadowTechnique::progress`]); and the emitter samples behind it.
     level: u32,
     samples: u32,
+    /// While a drag that began or ended under a frame-time target has not reached this light:
+    /// the permanent epoch it waits under (it keeps the layer it showed before; a later edit ends
+    /// the wait).
+    held: Option<u64>,
 }
 
 /// What a light's layer was resolved from.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 struct Resolved {
     /// [`screen_signature`] (the light, the surface, every instance edit but dragged objects'
-    /// moves) and the rung shown.
-    key: (Signature, usize),
+    /// moves), the rung shown and its [`ShadowTechnique::shown_version`].
+    key: (Signature, usize, Option<u64>),
     /// The dragged objects then (ids, versions, bounds).
     temporaries: Vec<InstanceState>,
     /// Whether some of them cast (then the technique wrote the light's layer before dragging
     /// and the temporary pass multiplied their shadows in).
     casting: bool,
+    /// The camera it was seen from.
+    camera: CameraUniform,
 }
 
 /// What of a light's layer must be resolved again.
@@ -327,6 +333,7 @@ impl Shadows {
             ),
             temporary: TemporaryShadows::new(&self.shared),
             unshadowed,
+            held: None,
             level: 0,
             samples: 0,
         });
@@ -459,7 +466,7 @@ impl Shadows {
             .iter()
             .map(|s| {
                 let top = s.shown == Some(s.rungs.len() - 1);
-                (s.light, s.level, top && s.shown_technique().current(), s.samples)
+                (s.light, s.level, top && s.held.is_none() && s.shown_technique().current(), s.samples)
             })
             .collect()
     }
@@ -670,7 +677,8 @@ impl Shadows {
         // Rung by rung across the lights (Toromanoff alg. 13: every light's cheap shadow before
         // anyone's upgrade), each rung's fills within the frame's budget, lights in priority order.
         let rungs = self.lights.iter().map(|s| s.rungs.len()).max().unwrap_or(0).min(self.cap.max(1));
-        let mut rebuilt = vec![false; self.lights.len()];
+        // The (light, rung) pairs whose `prepare` filled anything.
+        let mut rebuilt: HashSet<(usize, usize)> = HashSet::new();
         let order = self.fill_order(&surface.camera);
         for r in 0..rungs {
             for &k in &order {
@@ -696,35 +704,53 @@ impl Shadows {
                     costs: &self.costs,
                     region: None,
                 };
-                let before = ctx.cache.work;
+                let before = ctx.cache.work.fills();
                 rung.technique.prepare(&mut ctx)?;
-                let w = ctx.cache.work;
-                rebuilt[k] |= (
-                    w.map_views,
-                    w.composite_views,
-                    w.lightmap_samples,
-                    w.volume_objects,
-                    w.temporary_views,
-                    w.light_meshes,
-                ) != (
-                    before.map_views,
-                    before.composite_views,
-                    before.lightmap_samples,
-                    before.volume_objects,
-                    before.temporary_views,
-                    before.light_meshes,
-                );
+                if ctx.cache.work.fills() != before {
+                    rebuilt.insert((k, r));
+                }
             }
         }
         let temporaries = self.live.temporary_states();
+        // A drag that begins or ends under a target (Toromanoff alg. 13 applied to temporary
+        // objects: no frame takes every light's work at once): one light a frame, in fill order,
+        // moves to the permanent surface and the dragged objects' pass, or back; each other light
+        // keeps the layer it showed before (the dragged objects where they were picked up or
+        // released: its last complete state) until its turn, or until the camera, the light or
+        // another instance changes.
+        let epoch = self.live.permanent_epoch();
+        let holds: Vec<bool> = self
+            .lights
+            .iter()
+            .map(|s| {
+                let before_switch = s.resolved.as_ref().is_some_and(|r| {
+                    r.casting != casting
+                        && bytemuck::bytes_of(&r.camera) == bytemuck::bytes_of(&surface.camera)
+                        && self.live.light_state(s.light).map(|l| l.emitter_version) == Some(r.key.0.emitter)
+                });
+                self.cache.enabled() && !budget.is_unlimited() && before_switch && s.held.is_none_or(|e| e == epoch)
+            })
+            .collect();
+        let turn = order.iter().copied().find(|&k| holds[k]);
         for (k, s) in self.lights.iter_mut().enumerate() {
             if !casting {
                 s.temporary.release();
             }
+            if holds[k] && turn != Some(k) {
+                s.held.get_or_insert(epoch);
+                self.cache.work.held_lights += 1;
+                continue;
+            }
+            s.held = None;
             let Some(light) = self.live.light(s.light) else { continue };
             // The best allowed rung with something complete to show; none: unshadowed.
             let shown = (0..s.rungs.len().min(rungs)).rev().find(|&r| s.rungs[r].technique.shown());
-            let key = (screen_signature(&self.live, s.light, shadowed.generation()), shown.unwrap_or(usize::MAX));
+            // What the shown rung's resolve reads: its version where it tracks one (fills out of
+            // sight then change nothing), otherwise whether it filled anything this frame.
+            let version = shown.and_then(|r| s.rungs[r].technique.shown_version());
+            let refilled = shown.is_some_and(|r| version.is_none() && rebuilt.contains(&(k, r)));
+            let key =
+                (screen_signature(&self.live, s.light, shadowed.generation()), shown.unwrap_or(usize::MAX), version);
             let per_pixel = match shown {
                 Some(r) => s.rungs[r].technique.resolves_per_pixel(),
                 None => s.unshadowed.resolves_per_pixel(),
@@ -733,8 +759,12 @@ impl Shadows {
             // every pixel holds (they cast), or every pixel but their footprints (the validity
             // table's `Footprint`: they do not); the dragged objects' own shadows are redone
             // whenever they moved.
+            // The dragged objects' maps of the permanent casters depend on the light and the
+            // permanent scene alone: drawn again when those changed, not when a fill is shown.
+            let same_scene =
+                self.cache.enabled() && s.resolved.as_ref().is_some_and(|r| r.key.0 == key.0 && r.casting == casting);
             let (redo, moved) = match &s.resolved {
-                Some(r) if self.cache.enabled() && !rebuilt[k] && r.key == key && r.casting == casting => {
+                Some(r) if self.cache.enabled() && !refilled && r.key == key && r.casting == casting => {
                     let redo = if casting {
                         Redo::Nothing
                     } else {
@@ -763,7 +793,8 @@ impl Shadows {
                 None => (0, 0),
             };
             (s.level, s.samples) = (level, samples);
-            s.resolved = shown.map(|_| Resolved { key, temporaries: temporaries.clone(), casting });
+            // Unshadowed too (nothing complete yet): that layer holds until a rung is shown.
+            s.resolved = Some(Resolved { key, temporaries: temporaries.clone(), casting, camera: surface.camera });
             let owner = shown.map_or(0, |r| s.rungs[r].owner);
             let region = match redo {
                 Redo::Region(rect) => {
@@ -805,7 +836,7 @@ impl Shadows {
                 }
                 ctx.region = None;
                 ctx.surface = surface;
-                s.temporary.apply(&mut ctx, &s.layer, shadowed, redo != Redo::Nothing);
+                s.temporary.apply(&mut ctx, &s.layer, shadowed, !same_scene);
             } else {
                 technique.resolve(&mut ctx, &s.layer);
             }

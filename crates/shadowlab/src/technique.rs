@@ -180,6 +180,15 @@ pub trait ShadowTechnique: Send {
         true
     }
 
+    /// A number that changes whenever what [`ShadowTechnique::resolve`] reads changes (maps,
+    /// volumes or light maps written where its lookups see them). A fill spread over frames into
+    /// layers out of sight leaves it as it is, so the light's visibility is not resolved again
+    /// until the fill is shown. `None` (the default): not tracked, and any fill in `prepare`
+    /// counts as a change.
+    fn shown_version(&self) -> Option<u64> {
+        None
+    }
+
     /// The rung it shows on its own quality ladder (1: its base; higher: upgrades, as light maps
     /// with more samples) and the emitter samples behind it (0 where that means nothing).
     fn progress(&self) -> (u32, u32) {

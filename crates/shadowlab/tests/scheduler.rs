@@ -35,7 +35,8 @@ fn visibility(r: &Renderer) -> Vec<Vec<f32>> {
 }
 
 /// At start-up nothing is shown until a light's every view is rendered (all or nothing), one view a
-/// frame; then it equals a fresh engine's, and its level never goes back.
+/// frame, and its unshadowed layer is not resolved again meanwhile; then it equals a fresh
+/// engine's, and its level never goes back.
 #[test]
 fn start_up_fills_one_view_a_frame_and_shows_a_light_only_when_complete() {
     let mut r = sliced();
@@ -50,6 +51,11 @@ fn start_up_fills_one_view_a_frame_and_shows_a_light_only_when_complete() {
         let l: Vec<u32> = r.shadows.levels().iter().map(|x| x.1).collect();
         for (now, before) in l.iter().zip(levels.last().unwrap_or(&vec![0, 0])) {
             assert!(now >= before, "frame {frame}: a level went down: {l:?}");
+        }
+        // A light still unshadowed keeps its layer while its views fill out of sight: a frame
+        // that shows no light anew resolves nothing (frame 0 resolves every light once).
+        if frame > 0 && levels.last() == Some(&l) {
+            assert_eq!(w.resolves, 0, "frame {frame}: no level changed, yet a layer was resolved: {w:?}");
         }
         // Unshadowed lights are exactly 1 wherever relevant.
         for (light, v) in r.shadows.levels().iter().zip(visibility(&r)) {
@@ -191,6 +197,126 @@ fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
     assert!(first_light_equals_fresh(&r), "sixteen samples accumulated over frames equal sixteen at once");
 }
 
+/// Renders until the first light shows its current state at its top level.
+fn settle(r: &mut Renderer) {
+    for _ in 0..200 {
+        r.render().unwrap();
+        if r.shadows.levels()[0].2 {
+            return;
+        }
+    }
+    panic!("the light maps never completed");
+}
+
+/// Light maps the last frame showed anew (a fill or a rung promoted), over every light.
+fn light_maps_shown(r: &Renderer) -> f64 {
+    r.shadows.stats().extra.iter().filter(|(k, _)| k.ends_with("light_maps_filled")).map(|(_, v)| v).sum()
+}
+
+/// A refill spread over frames accumulates out of sight: a frame that adds samples without showing
+/// a new rung of the ladder resolves no light again and redraws none of the dragged chair's maps
+/// (each one did both before, and showed every sample added); a frame that shows one resolves that
+/// light alone, and the end equals a fresh engine.
+#[test]
+fn frames_that_only_accumulate_out_of_sight_resolve_nothing() {
+    use shadowlab_core::Mobility;
+    let mut r = sliced_light_maps();
+    settle(&mut r);
+    let chair = r.shadows.live().find_instance("chair east").unwrap();
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    let pick_up = r.render().unwrap().work;
+    assert!(pick_up.resolves > 0, "the pick-up resolves the lights over the permanent surface: {pick_up:?}");
+    let (mut quiet, mut shows) = (0, 0);
+    for frame in 1..100 {
+        let w = r.render().unwrap().work;
+        if light_maps_shown(&r) > 0.0 {
+            shows += 1;
+            assert_eq!(w.resolves, 1, "frame {frame} shows a rung: the light map's light alone resolves: {w:?}");
+            // The chair's own view from the ceiling lamp (one frustum: it is far from the lamp);
+            // the lamp's six cube faces of the permanent casters are not drawn again (7 views).
+            assert_eq!(w.temporary_views, 1, "frame {frame}: {w:?}");
+        } else if w.lightmap_samples > 0 {
+            quiet += 1;
+            assert_eq!((w.resolves, w.temporary_views), (0, 0), "frame {frame} only accumulates: {w:?}");
+        }
+        if r.shadows.levels()[0].2 {
+            break;
+        }
+    }
+    assert!(quiet >= 2 && shows >= 1, "{quiet} frames only accumulated, {shows} showed a rung");
+    assert!(first_light_equals_fresh(&r), "the refilled light maps equal a fresh engine's");
+}
+
+/// A drag that begins under a target moves one light a frame to the permanent surface and the
+/// dragged chair's own pass: each other light keeps, exactly, the layer it showed before the drag
+/// (the chair where it was), and is not current until its turn. A camera move ends the wait at
+/// once. The release goes back the same way. After each, every light equals a fresh engine's.
+#[test]
+fn a_drag_under_a_target_moves_one_light_a_frame() {
+    use shadowlab_core::Mobility;
+    for camera_moves in [false, true] {
+        let mut r = sliced_light_maps();
+        let hard = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
+        for l in 1..4 {
+            r.set_technique(LightId(l), &hard).unwrap();
+        }
+        settle(&mut r);
+        for _ in 0..10 {
+            r.render().unwrap();
+        }
+        let before = visibility(&r);
+        let lights = before.len();
+        assert_eq!(lights, 4, "room's four lights are shadowed");
+        let chair = r.shadows.live().find_instance("chair east").unwrap();
+        r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+        for frame in 0..lights {
+            let w = r.render().unwrap().work;
+            let now = visibility(&r);
+            let kept = now.iter().zip(&before).filter(|(a, b)| a == b).count();
+            let waiting = r.shadows.levels().iter().filter(|l| !l.2).count();
+            if frame == 1 && camera_moves {
+                assert_eq!((w.held_lights, w.resolves as usize), (0, lights), "the camera moved: every light resolves");
+                break;
+            }
+            // One light a frame takes the chair's pass; the others wait, not current, showing
+            // their layers of before the drag bit for bit.
+            let held = w.held_lights as usize;
+            assert_eq!(held, lights - 1 - frame, "frame {frame}: one light a frame: {w:?}");
+            assert!(kept >= held && waiting >= held, "frame {frame}: {kept} layers kept, {waiting} not current");
+            if frame == 0 && camera_moves {
+                let view = r.scene().view("table").unwrap().clone();
+                r.set_view(&view);
+            }
+        }
+        let all_equal_fresh = |r: &mut Renderer, when: &str| {
+            settle(r);
+            for _ in 0..3 {
+                r.render().unwrap();
+            }
+            assert!(r.shadows.levels().iter().all(|l| l.2), "{when}: every light current: {:?}", r.shadows.levels());
+            let fresh = r.fresh_visibility().unwrap();
+            for ((light, f), v) in fresh.iter().zip(visibility(r)) {
+                assert!(f == &v, "{when}: light {light} equals a fresh engine's (camera moved: {camera_moves})");
+            }
+        };
+        all_equal_fresh(&mut r, "dragging");
+        if camera_moves {
+            continue;
+        }
+        // Released where it stands: the lights go back one a frame too.
+        let during = visibility(&r);
+        r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
+        for frame in 0..lights {
+            let w = r.render().unwrap().work;
+            let kept = visibility(&r).iter().zip(&during).filter(|(a, b)| a == b).count();
+            let held = w.held_lights as usize;
+            assert_eq!(held, lights - 1 - frame, "release, frame {frame}: one light a frame: {w:?}");
+            assert!(kept >= held, "release, frame {frame}: {kept} layers kept");
+        }
+        all_equal_fresh(&mut r, "released");
+    }
+}
+
 /// A pick-up spread over frames refills the texels the chair shadowed; the chair is released
 /// elsewhere while those texels show a rung of fewer samples than the rest, so the release's
 /// refill takes them in with the chair's new shadow, and the end equals a fresh engine's exactly.
@@ -198,15 +324,6 @@ fn light_maps_accumulate_samples_over_frames_up_the_ladder() {
 fn a_release_before_a_pick_ups_refill_ends_completes_its_texels_too() {
     use shadowlab_core::Mobility;
     let mut r = sliced_light_maps();
-    let settle = |r: &mut Renderer| {
-        for _ in 0..200 {
-            r.render().unwrap();
-            if r.shadows.levels()[0].2 {
-                return;
-            }
-        }
-        panic!("the light maps never completed");
-    };
     settle(&mut r);
     let chair = r.shadows.live().find_instance("chair east").unwrap();
     let t = r.shadows.live().instance(chair).unwrap().transform;

@@ -56,6 +56,9 @@ pub struct Work {
     pub region_resolves: u32,
     /// Units left for later frames by the budget.
     pub deferred: u32,
+    /// Lights that kept the layer they showed before a drag began, waiting for their turn to take
+    /// the dragged objects' pass (a drag under a target frame time moves one light a frame).
+    pub held_lights: u32,
     /// The frame's budget for fills (infinite without a target frame time) and what it planned.
     pub budget_ms: f64,
     pub planned_ms: f64,
@@ -63,7 +66,7 @@ pub struct Work {
 
 impl Work {
     /// `(name, count)` of every counter, for reports.
-    pub fn counts(&self) -> [(&'static str, u32); 11] {
+    pub fn counts(&self) -> [(&'static str, u32); 12] {
         [
             ("map_views", self.map_views),
             ("composite_views", self.composite_views),
@@ -76,12 +79,27 @@ impl Work {
             ("region_resolves", self.region_resolves),
             ("deferred", self.deferred),
             ("light_meshes", self.light_meshes),
+            ("held_lights", self.held_lights),
         ]
     }
 
     /// Whether anything was rebuilt (reuse does not count).
     pub fn rebuilt_anything(&self) -> bool {
         self.map_views + self.lightmap_samples + self.volume_objects + self.temporary_views + self.light_meshes > 0
+    }
+
+    /// The counters of work that renders shadow data (maps, composites, light-map samples, volume
+    /// objects, temporary views, light meshes): when they moved between two points, something was
+    /// filled in between.
+    pub fn fills(&self) -> [u32; 6] {
+        [
+            self.map_views,
+            self.composite_views,
+            self.lightmap_samples,
+            self.volume_objects,
+            self.temporary_views,
+            self.light_meshes,
+        ]
     }
 }
 

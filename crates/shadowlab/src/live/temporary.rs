@@ -167,8 +167,8 @@ impl TemporaryShadows {
     /// layer × their shadows, where the raw layer is the light's technique over the permanent
     /// surface (`permanent`: what the eye would see without the dragged objects). Where the eye
     /// sees a dragged object instead, the permanent casters' hard shadow stands in for the raw
-    /// layer, from maps of the whole scene drawn once (`redraw`: the raw layer was resolved again)
-    /// and kept while the drag goes on. Only the pixels the objects cover and those their shadows
+    /// layer, from maps of the whole scene drawn once (`redraw`: the light or the permanent
+    /// scene changed) and kept while the drag goes on. Only the pixels the objects cover and those their shadows
     /// may fall on ([`shadow_footprint`]) are looked up; the others are copied from the raw layer.
     pub fn apply(
         &mut self,
@@ -226,7 +226,7 @@ impl TemporaryShadows {
             let group = lookup_group(shared, &maps, &self.bias, false);
             self.maps = Some((maps, group));
         }
-        let (maps, group) = self.maps.as_ref().expect("made above");
+        let (maps, group) = self.maps.as_mut().expect("made above");
         let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
         if self.permanent != p {
             maps.set_views(&ctx.gpu.queue, 0, &whole);

@@ -112,6 +112,9 @@ fn compose(
         lookup,
         filled: 0,
         draws: 0,
+        version: 0,
+        rest_version: None,
+        looks: 0,
     }))
 }
 
@@ -156,6 +159,13 @@ struct Lightmaps {
     /// Light maps filled in the last frame.
     filled: u32,
     draws: u32,
+    /// [`ShadowTechnique::shown_version`]: bumped when a shown layer is written, the textures are
+    /// made again, `rest` shows something new or what the lookup reads besides the layers changes.
+    version: u64,
+    /// `rest`'s own version when it tracks one.
+    rest_version: Option<u64>,
+    /// A hash of what the lookup reads besides the layers (the patches, which are shown).
+    looks: u64,
 }
 
 /// The patches of the scene as it was at `epoch`, their textures and bind groups.
@@ -692,7 +702,16 @@ impl ShadowTechnique for Lightmaps {
     }
 
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        let before = ctx.cache.work.fills();
         self.rest.prepare(ctx)?;
+        // What `rest` shows changed: by its own version where it tracks one, else by any fill.
+        let rest_changed = match self.rest.shown_version() {
+            Some(v) => self.rest_version.replace(v) != Some(v),
+            None => ctx.cache.work.fills() != before,
+        };
+        if rest_changed {
+            self.version += 1;
+        }
         let samples = self.emitter_samples(ctx.light);
         let epoch = ctx.live.epoch();
         if self.state.as_ref().is_none_or(|s| s.epoch != epoch) {
@@ -729,6 +748,7 @@ impl ShadowTechnique for Lightmaps {
                     }
                 }
                 self.state = Some(self.build(ctx, patches, samples.len()));
+                self.version += 1;
             }
         }
         let state = self.state.as_mut().expect("made above");
@@ -849,6 +869,7 @@ impl ShadowTechnique for Lightmaps {
                 state.accumulated[k] = 0;
                 state.back_signature[k] = None;
                 self.filled += 1;
+                self.version += 1;
                 continue;
             }
             // Spread over frames: samples accumulate in the back layer (restarting when the state
@@ -909,11 +930,16 @@ impl ShadowTechnique for Lightmaps {
             let reached = stale.iter().map(|&k| state.accumulated[k]).min().unwrap_or(0);
             let rung = sample_ladder(samples.len() as u32).into_iter().filter(|&r| r <= reached).max().unwrap_or(0);
             if rung > 0 {
+                let n = samples.len() as u32;
                 for &k in &stale {
-                    // Every stale patch has reached the rung: each shows all it has accumulated.
+                    // Every stale patch has reached the rung: each shows all it has accumulated,
+                    // when that is a rung it did not show yet or all its samples. Between rungs
+                    // samples accumulate out of sight, and the light is not resolved again.
                     let newer = state.front_signature[k] != state.back_signature[k];
-                    if newer || state.front_samples[k] < state.accumulated[k] {
+                    let (shown, accumulated) = (state.front_samples[k], state.accumulated[k]);
+                    if newer || (shown < accumulated && (shown < rung || accumulated == n)) {
                         state.copy_back(ctx, k, state.back_rect[k]);
+                        self.version += 1;
                         state.front_samples[k] = state.accumulated[k];
                         state.front_signature[k] = state.back_signature[k].clone();
                         state.front_bounds[k] = state.back_bounds[k].clone();
@@ -924,7 +950,7 @@ impl ShadowTechnique for Lightmaps {
                         };
                         self.filled += 1;
                     }
-                    if state.accumulated[k] == samples.len() as u32 {
+                    if state.front_samples[k] == n && state.front_signature[k] == state.back_signature[k] {
                         let key = ItemKey {
                             light: ctx.light_id,
                             owner: ctx.owner,
@@ -939,6 +965,13 @@ impl ShadowTechnique for Lightmaps {
                     }
                 }
             }
+        }
+        let floats: &[f32] = bytemuck::cast_slice(&uniforms);
+        let mut looks: Vec<f64> = floats.iter().map(|&f| f64::from(f)).collect();
+        looks.push(f64::from(u8::from(state.maps_shown())));
+        let looks = hash_values(&looks);
+        if std::mem::replace(&mut self.looks, looks) != looks {
+            self.version += 1;
         }
         queue.write_buffer(&state.patch_buffer, 0, bytemuck::cast_slice(&uniforms));
         queue.write_buffer(
@@ -998,6 +1031,10 @@ impl ShadowTechnique for Lightmaps {
 
     fn current(&self) -> bool {
         self.rest.current() && self.state.as_ref().is_some_and(|s| s.front_current.iter().all(|&c| c))
+    }
+
+    fn shown_version(&self) -> Option<u64> {
+        Some(self.version)
     }
 
     fn stats(&self) -> TechniqueStats {

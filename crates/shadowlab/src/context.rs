@@ -60,8 +60,9 @@ impl Shared {
             // Depth read as an unfilterable float: GL cannot `textureLoad` depth textures.
             texture_entry(1, stage, UNFILTERED, wgpu::TextureViewDimension::D2),
             texture_entry(2, stage, UNFILTERED, wgpu::TextureViewDimension::D2),
-            uniform_entry(3, stage),
-            // The pixel region a resolve covers (`ResolveRegion`).
+            branch_entry(3, stage, compute),
+            // The pixel region a resolve covers (`ResolveRegion`): a uniform, as storage buffers
+            // are few (8 a stage on the web, and `ssm`'s edge pass uses all of them).
             uniform_entry(5, stage),
             // The facets' own normals (`SurfaceInputs::set_geometric_normal`).
             texture_entry(6, stage, UNFILTERED, wgpu::TextureViewDimension::D2),
@@ -353,6 +354,12 @@ pub fn texture_entry(
         ty: wgpu::BindingType::Texture { sample_type, view_dimension, multisampled: false },
         count: None,
     }
+}
+
+/// The entry of a buffer made by `util::branch_buffer`: read-only storage where compute runs, a
+/// uniform without (the shaders declare it under `FRAGMENT` likewise).
+pub fn branch_entry(binding: u32, visibility: wgpu::ShaderStages, compute: bool) -> wgpu::BindGroupLayoutEntry {
+    if compute { storage_entry(binding, visibility, true) } else { uniform_entry(binding, visibility) }
 }
 
 pub fn storage_entry(binding: u32, visibility: wgpu::ShaderStages, read_only: bool) -> wgpu::BindGroupLayoutEntry {

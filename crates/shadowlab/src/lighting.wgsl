@@ -33,7 +33,12 @@ fn read_depth(pixel: vec2<i32>) -> f32 {
 }
 // #endif
 
+// #ifdef SAMPLED_DEPTH
 @group(1) @binding(0) var<uniform> light: Light;
+// #else
+// Storage where compute runs (`util::branch_buffer`).
+@group(1) @binding(0) var<storage, read> light: Light;
+// #endif
 @group(1) @binding(1) var visibility: texture_2d<f32>;
 
 @group(2) @binding(0) var hdr_texture: texture_2d<f32>;

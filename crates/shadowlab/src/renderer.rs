@@ -537,7 +537,11 @@ fn lighting_layouts(shared: &Shared) -> (wgpu::BindGroupLayout, wgpu::BindGroupL
     let g1 = shared.layout("lighting group 1", || {
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("lighting group 1"),
-            entries: &[crate::context::uniform_entry(0, frag), tex(1, float)],
+            entries: &[
+                // The light (`util::branch_buffer`).
+                crate::context::branch_entry(0, frag, shared.compute),
+                tex(1, float),
+            ],
         })
     });
     let g2 = shared.layout("lighting group 2", || {

@@ -591,6 +591,7 @@ pub fn lookup_layout(shared: &Shared) -> wgpu::BindGroupLayout {
                 } else {
                     crate::context::uniform_entry(2, c)
                 },
+                // A uniform, as storage buffers are few (8 a stage on the web; `ssm` uses them all).
                 crate::context::uniform_entry(3, c),
             ];
             if shared.hardware_compare {

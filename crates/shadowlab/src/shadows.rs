@@ -286,7 +286,7 @@ impl Shadows {
             rungs.push((spec.clone(), technique));
         }
         let device = &self.shared.gpu.device;
-        let light_buffer = util::uniform_buffer(device, &l.name, bytemuck::bytes_of(&LightUniform::new(l)));
+        let light_buffer = util::branch_buffer(device, &l.name, bytemuck::bytes_of(&LightUniform::new(l)));
         let layer = VisibilityLayer::new(device, width, height, &format!("visibility {}", l.name));
         let uniform_version = self.live.light_state(light).map_or(0, |s| s.colour_version);
         let unshadowed = TechniqueSpec::parse("none", &[])

@@ -17,7 +17,7 @@ use shadowlab_core::{Aabb, Mobility};
 
 use super::edits::InstanceId;
 use super::scene::LiveScene;
-use crate::context::{RegionUniform, Shared, UNFILTERED, texture_entry, uniform_entry};
+use crate::context::{RegionUniform, Shared, UNFILTERED, storage_entry, texture_entry};
 use crate::frame::{CameraUniform, Footprint, SurfaceInputs, VisibilityLayer};
 use crate::gbuffer::GBuffer;
 use crate::gpu_scene::GpuScene;
@@ -125,7 +125,7 @@ impl TemporaryShadows {
             maps: None,
             permanent: 0,
             bias: crate::util::uniform_buffer(device, "temporary bias", bytemuck::bytes_of(&bias)),
-            counts: crate::util::uniform_buffer(
+            counts: crate::util::branch_buffer(
                 device,
                 "temporary counts",
                 bytemuck::bytes_of(&TemporaryUniform { counts: [0; 4] }),
@@ -299,7 +299,7 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
             label: Some("temporary"),
             entries: &[
                 texture_entry(0, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
-                uniform_entry(1, wgpu::ShaderStages::COMPUTE),
+                storage_entry(1, wgpu::ShaderStages::COMPUTE, true),
                 texture_entry(2, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
             ],
         })

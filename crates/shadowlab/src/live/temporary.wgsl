@@ -14,7 +14,8 @@ struct Temporary {
 };
 
 @group(2) @binding(0) var raw_visibility: texture_2d<f32>;
-@group(2) @binding(1) var<uniform> temporary: Temporary;
+// Storage, not a uniform (`util::branch_buffer`).
+@group(2) @binding(1) var<storage, read> temporary: Temporary;
 // The depth buffer of the permanent instances alone, from the same camera.
 @group(2) @binding(2) var permanent_depth: texture_2d<f32>;
 

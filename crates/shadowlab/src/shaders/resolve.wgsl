@@ -9,7 +9,12 @@
 @group(0) @binding(0) var<uniform> camera: Camera;
 @group(0) @binding(1) var depth_texture: texture_2d<f32>;
 @group(0) @binding(2) var normal_texture: texture_2d<f32>;
+// The light: storage where compute runs (`util::branch_buffer`).
+// #ifdef FRAGMENT
 @group(0) @binding(3) var<uniform> light: Light;
+// #else
+@group(0) @binding(3) var<storage, read> light: Light;
+// #endif
 // #ifdef FRAGMENT
 // Depths through a nearest sampler: WebGL2 reads 0 from a depth texture without one (context.rs:
 // `Shared::nearest`).

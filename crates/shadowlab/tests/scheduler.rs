@@ -249,12 +249,13 @@ fn frames_that_only_accumulate_out_of_sight_resolve_nothing() {
 
 /// A drag that begins under a target moves one light a frame to the permanent surface and the
 /// dragged chair's own pass: each other light keeps, exactly, the layer it showed before the drag
-/// (the chair where it was), and is not current until its turn. A camera move ends the wait at
-/// once. The release goes back the same way. After each, every light equals a fresh engine's.
+/// (the chair where it was), and is not current until its turn. A camera move or another
+/// instance's edit ends the wait at once. The release goes back the same way. After each, every light equals a fresh engine's.
 #[test]
 fn a_drag_under_a_target_moves_one_light_a_frame() {
     use shadowlab_core::Mobility;
-    for camera_moves in [false, true] {
+    for interrupt in ["none", "camera", "edit"] {
+        let camera_moves = interrupt != "none";
         let mut r = sliced_light_maps();
         let hard = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
         for l in 1..4 {
@@ -275,7 +276,7 @@ fn a_drag_under_a_target_moves_one_light_a_frame() {
             let kept = now.iter().zip(&before).filter(|(a, b)| a == b).count();
             let waiting = r.shadows.levels().iter().filter(|l| !l.2).count();
             if frame == 1 && camera_moves {
-                assert_eq!((w.held_lights, w.resolves as usize), (0, lights), "the camera moved: every light resolves");
+                assert_eq!((w.held_lights, w.resolves as usize), (0, lights), "{interrupt}: every light resolves");
                 break;
             }
             // One light a frame takes the chair's pass; the others wait, not current, showing
@@ -283,9 +284,16 @@ fn a_drag_under_a_target_moves_one_light_a_frame() {
             let held = w.held_lights as usize;
             assert_eq!(held, lights - 1 - frame, "frame {frame}: one light a frame: {w:?}");
             assert!(kept >= held && waiting >= held, "frame {frame}: {kept} layers kept, {waiting} not current");
-            if frame == 0 && camera_moves {
+            if frame == 0 && interrupt == "camera" {
                 let view = r.scene().view("table").unwrap().clone();
                 r.set_view(&view);
+            }
+            if frame == 0 && interrupt == "edit" {
+                // Another instance moved: the layers kept show it where it was.
+                let table = r.shadows.live().find_instance("table").unwrap();
+                let t = r.shadows.live().instance(table).unwrap().transform;
+                let moved = glam::Affine3A::from_translation(Vec3::new(0.2, 0.0, 0.0)) * t;
+                r.apply(Edit::Transform { instance: table, transform: moved }).unwrap();
             }
         }
         let all_equal_fresh = |r: &mut Renderer, when: &str| {
@@ -296,7 +304,7 @@ fn a_drag_under_a_target_moves_one_light_a_frame() {
             assert!(r.shadows.levels().iter().all(|l| l.2), "{when}: every light current: {:?}", r.shadows.levels());
             let fresh = r.fresh_visibility().unwrap();
             for ((light, f), v) in fresh.iter().zip(visibility(r)) {
-                assert!(f == &v, "{when}: light {light} equals a fresh engine's (camera moved: {camera_moves})");
+                assert!(f == &v, "{when}: light {light} equals a fresh engine's (interrupted: {interrupt})");
             }
         };
         all_equal_fresh(&mut r, "dragging");

@@ -56,8 +56,8 @@ pub struct Work {
     pub region_resolves: u32,
     /// Units left for later frames by the budget.
     pub deferred: u32,
-    /// Lights that kept the layer they showed before a drag began, waiting for their turn to take
-    /// the dragged objects' pass (a drag under a target frame time moves one light a frame).
+    /// Lights that kept the layer they showed before a drag began or ended, waiting for their turn
+    /// (under a target frame time, one light a frame moves to or from the dragged objects' pass).
     pub held_lights: u32,
     /// The frame's budget for fills (infinite without a target frame time) and what it planned.
     pub budget_ms: f64,
@@ -85,7 +85,7 @@ impl Work {
 
     /// Whether anything was rebuilt (reuse does not count).
     pub fn rebuilt_anything(&self) -> bool {
-        self.map_views + self.lightmap_samples + self.volume_objects + self.temporary_views + self.light_meshes > 0
+        self.fills().iter().any(|&n| n > 0)
     }
 
     /// The counters of work that renders shadow data (maps, composites, light-map samples, volume

@@ -91,6 +91,27 @@ impl CameraUniform {
         self.footprint_of(seen.points().map(|p| p + eye))
     }
 
+    /// Where on screen (in pixels, x right, y down) the part of a convex body inside the eye's
+    /// frustum lies: its vertices projected, as [`CameraUniform::footprint_of_body`] cuts them;
+    /// the convex hull of these points is the body's silhouette. `None` where they cannot be
+    /// projected (a point at the eye's plane, or not finite): anywhere.
+    pub fn pixels_of_body(&self, body: &ConvexBody) -> Option<Vec<glam::Vec2>> {
+        let eye = self.position.truncate();
+        let rel = ConvexBody { faces: body.faces.iter().map(|f| f.iter().map(|&p| p - eye).collect()).collect() };
+        let to_clip = self.inv_view_proj_rel.inverse();
+        let seen = rel.clip_to_view(&to_clip, 0.01, 0.01);
+        let (w, h) = (self.size.x.max(0.0), self.size.y.max(0.0));
+        seen.points()
+            .map(|p| {
+                let clip = to_clip * p.extend(1.0);
+                let ahead = clip.w > 1e-6 * clip.truncate().length().max(1.0);
+                let ndc = glam::Vec2::new(clip.x, clip.y) / clip.w;
+                let pixel = glam::Vec2::new((ndc.x + 1.0) * 0.5 * w, (1.0 - ndc.y) * 0.5 * h);
+                (ahead && pixel.is_finite()).then_some(pixel)
+            })
+            .collect()
+    }
+
     /// The pixels the convex hull of `points` may cover ([`CameraUniform::footprint`]'s rules).
     pub fn footprint_of(&self, points: impl IntoIterator<Item = Vec3>) -> Footprint {
         let (width, height) = (self.size.x.max(0.0) as u32, self.size.y.max(0.0) as u32);

@@ -339,6 +339,22 @@ impl ShadowMapArray {
         classes: &[Mobility],
         clear: bool,
     ) -> u32 {
+        self.render_tiles(ctx, layer, &[(slot, None)], raster, classes, clear)
+    }
+
+    /// Renders the casters of the given mobilities into `layer` from several views in one pass,
+    /// each into its own viewport (`None`: the whole layer): an atlas of small maps, such as the
+    /// dragged objects' one per light, costs one pass instead of one per view. Returns the draws
+    /// issued.
+    pub fn render_tiles(
+        &self,
+        ctx: &mut FrameContext<'_>,
+        layer: u32,
+        tiles: &[(u32, Option<[u32; 4]>)],
+        raster: &Raster,
+        classes: &[Mobility],
+        clear: bool,
+    ) -> u32 {
         let timestamps = ctx.timer.render_pass(&ctx.gpu.device, PassKind::Shadow);
         // Reversed Z: 0 is "infinitely far", every caster is closer.
         let load = if clear { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load };
@@ -356,34 +372,42 @@ impl ShadowMapArray {
         });
         ctx.gpu_scene.bind(&mut pass);
         let group = if raster.linear_depth { &self.linear_group } else { &self.matrices_group };
-        pass.set_bind_group(0, Some(group), &[(u64::from(slot) * self.stride) as u32]);
-        // Only the casters that can reach the view's window: a cube face or a fitted frustum sees
-        // a part of the scene, and a CPU rasteriser pays for every vertex it is given.
-        let keep = self.clips.get(slot as usize).copied().flatten().map(|clip| {
-            let mut keep = vec![false; ctx.gpu_scene.slots.iter().map(|&s| s as usize + 1).max().unwrap_or(0)];
-            for (&s, state) in ctx.gpu_scene.slots.iter().zip(ctx.live.instances()) {
-                keep[s as usize] = meets_window(&clip, &state.bounds);
-            }
-            keep
-        });
         let mut draws = 0;
-        let mut current: Option<(wgpu::Face, bool, bool, bool)> = None;
-        for g in ctx.gpu_scene.casters(classes).filter(|g| !raster.only_masked || g.mask.is_some()) {
-            let cull = cull_mode(g, raster.faces);
-            let mask = g.mask.zip(ctx.gpu_scene.masks.as_ref());
-            let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored, mask.is_some());
-            if current != Some(key) {
-                pass.set_pipeline(&depth_pipeline(ctx.shared, cull, g.mirrored, mask.is_some(), raster));
-                current = Some(key);
+        for &(slot, viewport) in tiles {
+            if let Some([x, y, w, h]) = viewport {
+                pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
+                // The viewport maps the view's window onto the tile; what lies outside the window
+                // must not reach the neighbours.
+                pass.set_scissor_rect(x, y, w, h);
             }
-            if let Some((k, masks)) = mask {
-                pass.set_bind_group(1, Some(&masks.group), &[k * masks.stride]);
-            }
-            match &keep {
-                Some(keep) => draws += ctx.gpu_scene.draw_kept(&mut pass, std::iter::once(g), keep),
-                None => {
-                    ctx.gpu_scene.draw(&mut pass, std::iter::once(g));
-                    draws += 1;
+            pass.set_bind_group(0, Some(group), &[(u64::from(slot) * self.stride) as u32]);
+            // Only the casters that can reach the view's window: a cube face or a fitted frustum
+            // sees a part of the scene, and a CPU rasteriser pays for every vertex it is given.
+            let keep = self.clips.get(slot as usize).copied().flatten().map(|clip| {
+                let mut keep = vec![false; ctx.gpu_scene.slots.iter().map(|&s| s as usize + 1).max().unwrap_or(0)];
+                for (&s, state) in ctx.gpu_scene.slots.iter().zip(ctx.live.instances()) {
+                    keep[s as usize] = meets_window(&clip, &state.bounds);
+                }
+                keep
+            });
+            let mut current: Option<(wgpu::Face, bool, bool, bool)> = None;
+            for g in ctx.gpu_scene.casters(classes).filter(|g| !raster.only_masked || g.mask.is_some()) {
+                let cull = cull_mode(g, raster.faces);
+                let mask = g.mask.zip(ctx.gpu_scene.masks.as_ref());
+                let key = (cull.unwrap_or(wgpu::Face::Front), cull.is_none(), g.mirrored, mask.is_some());
+                if current != Some(key) {
+                    pass.set_pipeline(&depth_pipeline(ctx.shared, cull, g.mirrored, mask.is_some(), raster));
+                    current = Some(key);
+                }
+                if let Some((k, masks)) = mask {
+                    pass.set_bind_group(1, Some(&masks.group), &[k * masks.stride]);
+                }
+                match &keep {
+                    Some(keep) => draws += ctx.gpu_scene.draw_kept(&mut pass, std::iter::once(g), keep),
+                    None => {
+                        ctx.gpu_scene.draw(&mut pass, std::iter::once(g));
+                        draws += 1;
+                    }
                 }
             }
         }

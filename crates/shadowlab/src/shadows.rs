@@ -65,9 +65,6 @@ pub(crate) struct LightShadow {
     resolved: Option<Resolved>,
     /// The region uniform of this light's resolves limited to a footprint.
     region_buffer: wgpu::Buffer,
-    /// The temporary (dragged) objects' maps for this light: each light its own, since every
-    /// light's views are written before the frame's commands run.
-    temporary: TemporaryShadows,
     /// What the light shows while its technique has nothing complete: no shadow.
     unshadowed: Box<dyn ShadowTechnique>,
     /// The quality level shown in the last frame: 0 no shadow, 1 the technique's base, higher its
@@ -93,6 +90,9 @@ struct Resolved {
     casting: bool,
     /// The camera it was seen from.
     camera: CameraUniform,
+    /// While they cast: the generation of the layers the technique wrote into
+    /// ([`TemporaryShadows::begin`]); 0 otherwise.
+    raw: u64,
 }
 
 /// What of a light's layer must be resolved again.
@@ -161,6 +161,8 @@ pub struct Shadows {
     map_plan: Option<MapPlan>,
     /// What the lights' techniques shadow while objects are dragged (`None` otherwise).
     permanent: Option<PermanentSurface>,
+    /// The dragged objects' shadows, every light's in one pass.
+    temporary: TemporaryShadows,
 }
 
 impl Shadows {
@@ -168,6 +170,7 @@ impl Shadows {
     pub fn new(gpu: &Gpu, scene: Scene) -> Self {
         let shared = Shared::new(gpu);
         let gpu_scene = GpuScene::new(&gpu.device, &gpu.queue, &scene);
+        let temporary = TemporaryShadows::new(&shared);
         Self {
             shared,
             live: LiveScene::new(scene),
@@ -188,6 +191,7 @@ impl Shadows {
             map_budget: Some(DEFAULT_MAP_BUDGET),
             map_plan: None,
             permanent: None,
+            temporary,
         }
     }
 
@@ -331,7 +335,6 @@ impl Shadows {
                 "resolve region",
                 bytemuck::bytes_of(&RegionUniform::whole()),
             ),
-            temporary: TemporaryShadows::new(&self.shared),
             unshadowed,
             held: None,
             level: 0,
@@ -732,10 +735,16 @@ impl Shadows {
             })
             .collect();
         let turn = order.iter().copied().find(|&k| holds[k]);
+        // The layers the techniques write into while objects cast: a light's holds while their
+        // generation is the one it was resolved under.
+        let raw = if casting {
+            let ids: Vec<LightId> = self.lights.iter().map(|s| s.light).collect();
+            self.temporary.begin(&self.shared, surface.width, surface.height, &ids)
+        } else {
+            self.temporary.release();
+            0
+        };
         for (k, s) in self.lights.iter_mut().enumerate() {
-            if !casting {
-                s.temporary.release();
-            }
             if holds[k] && turn != Some(k) {
                 s.held.get_or_insert(epoch);
                 self.cache.work.held_lights += 1;
@@ -764,7 +773,9 @@ impl Shadows {
             let same_scene =
                 self.cache.enabled() && s.resolved.as_ref().is_some_and(|r| r.key.0 == key.0 && r.casting == casting);
             let (redo, moved) = match &s.resolved {
-                Some(r) if self.cache.enabled() && !refilled && r.key == key && r.casting == casting => {
+                Some(r)
+                    if self.cache.enabled() && !refilled && r.key == key && r.casting == casting && r.raw == raw =>
+                {
                     let redo = if casting {
                         Redo::Nothing
                     } else {
@@ -794,7 +805,7 @@ impl Shadows {
             };
             (s.level, s.samples) = (level, samples);
             // Unshadowed too (nothing complete yet): that layer holds until a rung is shown.
-            s.resolved = Some(Resolved { key, temporaries: temporaries.clone(), casting, camera: surface.camera });
+            s.resolved = Some(Resolved { key, temporaries: temporaries.clone(), casting, camera: surface.camera, raw });
             let owner = shown.map_or(0, |r| s.rungs[r].owner);
             let region = match redo {
                 Redo::Region(rect) => {
@@ -830,16 +841,42 @@ impl Shadows {
             if casting {
                 // The technique's own layer is kept apart (dragged objects in none of its data);
                 // the dragged objects' shadows are multiplied in each time they move.
-                let raw = s.temporary.raw_layer(&self.shared, surface.width, surface.height);
                 if redo != Redo::Nothing {
-                    technique.resolve(&mut ctx, raw);
+                    technique.resolve(&mut ctx, self.temporary.raw_layer(k));
                 }
                 ctx.region = None;
                 ctx.surface = surface;
-                s.temporary.apply(&mut ctx, &s.layer, shadowed, !same_scene);
+                self.temporary.add(&mut ctx, k, &s.layer, !same_scene);
             } else {
                 technique.resolve(&mut ctx, &s.layer);
             }
+        }
+        // Every light's dragged-object shadows in one lookup.
+        if let Some((first, light)) = self.temporary.first_pending().and_then(|k| {
+            let s = &self.lights[k];
+            self.live.light(s.light).map(|l| (s, l))
+        }) {
+            let mut ctx = FrameContext {
+                gpu: &gpu,
+                shared: &self.shared,
+                encoder,
+                scene: self.live.scene(),
+                gpu_scene: &self.gpu_scene,
+                surface,
+                light,
+                light_id: first.light,
+                light_buffer: &first.light_buffer,
+                timer,
+                frame_index: self.frame_index,
+                live: &self.live,
+                cache: &mut self.cache,
+                owner: 0,
+                budget: &mut budget,
+                costs: &self.costs,
+                region: None,
+            };
+            let outs: Vec<&VisibilityLayer> = self.lights.iter().map(|s| &s.layer).collect();
+            self.temporary.run(&mut ctx, shadowed, &outs);
         }
         let mut work = self.cache.begin_frame();
         self.last_units = self.cache.take_units();
@@ -873,8 +910,6 @@ impl Shadows {
     /// GPU bytes held for shadows: every technique's maps and buffers, the visibility layers and
     /// the temporary objects' maps.
     pub fn memory_bytes(&self) -> u64 {
-        self.stats().memory_bytes
-            + self.lights.iter().map(|s| s.temporary.bytes()).sum::<u64>()
-            + self.permanent.as_ref().map_or(0, PermanentSurface::bytes)
+        self.stats().memory_bytes + self.temporary.bytes() + self.permanent.as_ref().map_or(0, PermanentSurface::bytes)
     }
 }

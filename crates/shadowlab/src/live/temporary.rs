@@ -1,28 +1,28 @@
 //! Temporary (dragged) objects (Toromanoff 2005 §3.3, his option 5): while an instance is
 //! temporary, every cached item leaves it out, so dragging invalidates nothing; it casts through a
-//! pass of its own each frame instead: a small map per light fitted to the object ([`map_size`]) (one frustum, or
-//! six faces when the light is inside its bounds; an orthographic box for directional lights),
-//! looked up after the light's technique has written its visibility, which is multiplied by the
-//! object's hard shadow. On release the object becomes permanent again and the items it reaches
+//! pass of its own each frame instead: a small map per light fitted to the object ([`map_size`])
+//! (one frustum, or six faces when the light is inside its bounds; an orthographic box for
+//! directional lights), looked up after the lights' techniques have written their visibility,
+//! which is multiplied by the object's hard shadow, every light in one dispatch. On release the object becomes permanent again and the items it reaches
 //! are rebuilt once (the validity table).
 //!
 //! Receivers beyond a map's far plane compare at depth 0 (everything stored is closer to the
 //! light): the object's shadow reaches as far as the light does.
 
 use bytemuck::{Pod, Zeroable};
-use glam::Vec4;
+use glam::{Vec2, Vec4};
 use shadowlab_core::convex::ConvexBody;
 use shadowlab_core::lightspace::{ShadowView, light_frusta};
-use shadowlab_core::{Aabb, Mobility};
+use shadowlab_core::{Aabb, LightId, Mobility};
 
 use super::edits::InstanceId;
 use super::scene::LiveScene;
 use crate::context::{RegionUniform, Shared, UNFILTERED, storage_entry, texture_entry};
-use crate::frame::{CameraUniform, Footprint, SurfaceInputs, VisibilityLayer};
+use crate::frame::{CameraUniform, Footprint, LightUniform, SurfaceInputs, VISIBILITY_FORMAT, VisibilityLayer};
 use crate::gbuffer::GBuffer;
 use crate::gpu_scene::GpuScene;
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
-use crate::technique::{FrameContext, dispatch_resolve_rect};
+use crate::technique::FrameContext;
 use crate::timing::{GpuTimer, PassKind};
 
 /// Texels per side of a temporary object's map (the object alone fills it) for an output of
@@ -37,18 +37,10 @@ pub fn map_size(width: u32, height: u32) -> u32 {
 const NORMAL_OFFSET: f32 = 0.3;
 const SLOPE_BIAS: f32 = 1.5;
 
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-struct TemporaryUniform {
-    /// x: the temporary objects' views; y: the permanent views before them; z: 1 when those are
-    /// a cube's six faces.
-    counts: [u32; 4],
-}
-
 /// The permanent instances alone, seen by the application's camera, while objects are dragged:
 /// the surface the lights' techniques shadow then. Their layers depend on nothing a drag changes,
 /// so a drag step resolves nothing again (the dragged objects' pass alone runs); pixels that show
-/// a dragged object take the permanent casters' hard shadow instead ([`TemporaryShadows::apply`]).
+/// a dragged object take the permanent casters' hard shadow instead ([`TemporaryShadows::add`]).
 /// Drawn again when the camera, the permanent scene or the set of dragged objects changes.
 pub struct PermanentSurface {
     gbuffer: GBuffer,
@@ -102,39 +94,115 @@ impl PermanentSurface {
     }
 }
 
-/// The temporary objects' shadows of one light, rebuilt each frame while any object is dragged.
+/// The dragged objects' shadows for every light, rebuilt each frame while any object is dragged:
+/// one atlas of the dragged objects' maps drawn in one pass, and one lookup for all lights, so a
+/// drag step costs a pass and a dispatch however many lights there are, and each pixel's surface
+/// is read once (on a CPU adapter a pass, a dispatch and a surface read each cost about as much as
+/// a light's own work).
 pub struct TemporaryShadows {
-    raw: Option<VisibilityLayer>,
-    /// The permanent casters' views (layers from 0: they shadow the dragged objects) and then the
-    /// temporary objects' own.
+    /// The lights' own layers under the pass, and what it writes (`None` while nothing casts).
+    layers: Option<Layers>,
+    /// Bumped whenever `layers` is made again: a light's layer in it was resolved under one
+    /// generation and holds only while that is current.
+    generation: u64,
+    /// Every pending light's views of the whole scene (the permanent casters' shadow on the dragged
+    /// objects, kept while the drag goes on).
     maps: Option<(ShadowMapArray, wgpu::BindGroup)>,
-    /// Permanent views drawn in `maps` and still valid (0: none).
-    permanent: u32,
+    /// The temporary objects' views of this frame, every light's, as tiles of an atlas.
+    atlas: Option<Atlas>,
+    atlas_bias: wgpu::Buffer,
+    /// The slots of each light's views of the whole scene in `maps`.
+    permanent: Vec<PermanentViews>,
+    /// The first slot no light's whole-scene views hold.
+    next_slot: u32,
     bias: wgpu::Buffer,
-    counts: wgpu::Buffer,
-    /// The `RegionUniform` of the pixels the objects' shadows may fall on.
+    /// The lights of this frame's lookups (`Batch`, and their uniforms: `array<Light>`), and the
+    /// lookups' workgroups (`Work`): over the lights' shadows, and over the pixels that may show a
+    /// dragged object.
+    batch: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    work: wgpu::Buffer,
+    dragged_work: wgpu::Buffer,
+    /// Group 0's region (unused: the batches say which pixels are looked up).
     region: wgpu::Buffer,
+    /// The lights [`TemporaryShadows::add`] queued for this frame's lookup.
+    pending: Vec<Pending>,
 }
+
+/// The lights' layers while objects are dragged: one array layer per light, in the engine's
+/// light order.
+struct Layers {
+    /// What each light's technique wrote over the permanent surface (views of one layer each).
+    raw: Vec<VisibilityLayer>,
+    raw_texture: wgpu::Texture,
+    /// Written by the lookup; its rectangles are copied into the lights' own layers.
+    out_texture: wgpu::Texture,
+    out_view: wgpu::TextureView,
+    lights: Vec<LightId>,
+}
+
+struct PermanentViews {
+    light: LightId,
+    first: u32,
+    count: u32,
+    drawn: bool,
+}
+
+/// A light's part of the frame's lookup.
+struct Pending {
+    light: LightId,
+    /// Its layer in [`Layers`].
+    layer: u32,
+    uniform: LightUniform,
+    /// The pixels its shadows may fall on, as blocks of `GROUP`² ([`Blocks::indices`]), and their
+    /// bounds.
+    blocks: Vec<u32>,
+    rect: [u32; 4],
+    /// The pixels that may show a dragged object (within `rect`).
+    objects: Option<[u32; 4]>,
+    /// The temporary objects' views, and the whole scene's.
+    views: Vec<ShadowView>,
+    whole: Vec<ShadowView>,
+    redraw: bool,
+}
+
+/// One light of a lookup (`temporary.wgsl`, `struct Entry`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct Entry {
+    rect: [u32; 4],
+    /// x: the first temporary view, y: how many; z: the first view of the whole scene, w: how many.
+    views: [u32; 4],
+    /// x: 1 when the whole scene's views are a cube's six faces; y: the light's layer; w: the
+    /// light's index in the lights' array.
+    flags: [u32; 4],
+}
+
+/// Pixels a side of a lookup's workgroup.
+const GROUP: u32 = 8;
 
 impl TemporaryShadows {
     pub fn new(shared: &Shared) -> Self {
         let device = &shared.gpu.device;
-        let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, 0.0, 0.0), mode: Vec4::ZERO };
         Self {
-            raw: None,
+            layers: None,
+            generation: 0,
             maps: None,
-            permanent: 0,
-            bias: crate::util::uniform_buffer(device, "temporary bias", bytemuck::bytes_of(&bias)),
-            counts: crate::util::branch_buffer(
-                device,
-                "temporary counts",
-                bytemuck::bytes_of(&TemporaryUniform { counts: [0; 4] }),
-            ),
+            atlas: None,
+            atlas_bias: crate::util::uniform_buffer(device, "temporary atlas bias", bytemuck::bytes_of(&bias(1))),
+            permanent: Vec::new(),
+            next_slot: 0,
+            bias: crate::util::uniform_buffer(device, "temporary bias", bytemuck::bytes_of(&bias(1))),
+            batch: batch_buffer(device, 1),
+            work: work_buffer(device, 1),
+            dragged_work: work_buffer(device, 1),
+            lights: lights_buffer(device, 1),
             region: crate::util::uniform_buffer(
                 device,
                 "temporary region",
                 bytemuck::bytes_of(&RegionUniform::whole()),
             ),
+            pending: Vec::new(),
         }
     }
 
@@ -144,44 +212,62 @@ impl TemporaryShadows {
         live.scene().instances.iter().any(|i| i.mobility == Mobility::Temporary)
     }
 
-    /// The layer techniques write into while temporary objects exist (the pass multiplies it into
-    /// the light's own layer).
-    pub fn raw_layer(&mut self, shared: &Shared, width: u32, height: u32) -> &VisibilityLayer {
-        let stale = self.raw.as_ref().is_none_or(|r| (r.texture.width(), r.texture.height()) != (width, height));
-        if stale {
-            self.raw = Some(VisibilityLayer::new(&shared.gpu.device, width, height, "visibility before dragging"));
+    /// Makes the lights' layers for a frame of `width × height` shadowing `lights` (in the
+    /// engine's order) where they are missing or of another shape. Returns their generation.
+    pub fn begin(&mut self, shared: &Shared, width: u32, height: u32, lights: &[LightId]) -> u64 {
+        self.pending.clear();
+        let fits = self
+            .layers
+            .as_ref()
+            .is_some_and(|l| l.lights == lights && (l.raw_texture.width(), l.raw_texture.height()) == (width, height));
+        if !fits {
+            self.layers = Some(Layers::new(shared, width, height, lights));
+            self.generation += 1;
         }
-        self.raw.as_ref().expect("made above")
+        self.generation
     }
 
-    /// Frees the layer and maps once nothing is dragged: a drag holds them, a still scene does not.
+    /// The layer the `k`-th light's technique writes into while temporary objects exist (the pass
+    /// multiplies it into the light's own layer). After [`TemporaryShadows::begin`].
+    pub fn raw_layer(&self, k: usize) -> &VisibilityLayer {
+        &self.layers.as_ref().expect("begin comes first").raw[k]
+    }
+
+    /// The engine's index of the first light [`TemporaryShadows::add`] queued this frame.
+    pub fn first_pending(&self) -> Option<usize> {
+        self.pending.first().map(|p| p.layer as usize)
+    }
+
+    /// Frees the layers and maps once nothing is dragged: a drag holds them, a still scene does not.
     pub fn release(&mut self) {
-        (self.raw, self.maps, self.permanent) = (None, None, 0);
+        (self.layers, self.maps, self.atlas, self.next_slot) = (None, None, None, 0);
+        self.permanent.clear();
+        self.pending.clear();
     }
 
     pub fn bytes(&self) -> u64 {
-        self.raw.as_ref().map_or(0, VisibilityLayer::bytes) + self.maps.as_ref().map_or(0, |m| m.0.bytes())
+        let layers = self.layers.as_ref().map_or(0, |l| {
+            let s = l.raw_texture.size();
+            2 * u64::from(s.width) * u64::from(s.height) * u64::from(s.depth_or_array_layers) * 4
+        });
+        layers + self.maps.as_ref().map_or(0, |m| m.0.bytes()) + self.atlas.as_ref().map_or(0, |a| a.maps.bytes())
     }
 
-    /// Renders the temporary objects' maps for the context's light and writes `out` = the raw
-    /// layer × their shadows, where the raw layer is the light's technique over the permanent
-    /// surface (`permanent`: what the eye would see without the dragged objects). Where the eye
-    /// sees a dragged object instead, the permanent casters' hard shadow stands in for the raw
-    /// layer, from maps of the whole scene drawn once (`redraw`: the light or the permanent
-    /// scene changed) and kept while the drag goes on. Only the pixels the objects cover and those their shadows
-    /// may fall on ([`shadow_footprint`]) are looked up; the others are copied from the raw layer.
-    pub fn apply(
-        &mut self,
-        ctx: &mut FrameContext<'_>,
-        out: &VisibilityLayer,
-        permanent: &SurfaceInputs,
-        redraw: bool,
-    ) {
+    /// Queues the `k`-th light (the context's) for this frame's lookup, which writes into `out`
+    /// the light's raw layer × the temporary objects' shadows, where the raw layer is the light's
+    /// technique over the permanent surface (what the eye would see without the dragged objects).
+    /// Where the eye sees a dragged object instead, the permanent casters' hard shadow stands in
+    /// for the raw layer, from maps of the whole scene drawn once (`redraw`: the light or the
+    /// permanent scene changed) and kept while the drag goes on. Only the pixels the objects cover
+    /// and those their shadows may fall on ([`shadow_silhouette`]) are looked up; the others are
+    /// copied from the raw layer now.
+    pub fn add(&mut self, ctx: &mut FrameContext<'_>, k: usize, out: &VisibilityLayer, redraw: bool) {
         if redraw {
             // Before any early return: maps drawn for the layer's old state must not outlive it.
-            self.permanent = 0;
+            if let Some(p) = self.permanent.iter_mut().find(|p| p.light == ctx.light_id) {
+                p.drawn = false;
+            }
         }
-        let shared = ctx.shared;
         let size = map_size(ctx.surface.width, ctx.surface.height);
         let mut views: Vec<ShadowView> = Vec::new();
         let mut receivers = ctx.live.fit_bounds();
@@ -197,73 +283,388 @@ impl TemporaryShadows {
                 }
             }
         }
-        let footprint = views
-            .iter()
-            .fold(footprint, |f, v| f.union(shadow_footprint(&ctx.surface.camera, v, size, &padded(&receivers))));
-        let raw = self.raw.as_ref().expect("raw_layer comes first");
-        let rect = match footprint {
-            Footprint::Whole => [0, 0, ctx.surface.width, ctx.surface.height],
-            Footprint::Nothing | Footprint::Rect(_) => {
-                let extent = raw.texture.size();
-                ctx.encoder.copy_texture_to_texture(raw.texture.as_image_copy(), out.texture.as_image_copy(), extent);
-                match footprint {
-                    Footprint::Rect(rect) => rect,
-                    _ => return,
-                }
-            }
+        let whole_frame = [0, 0, ctx.surface.width, ctx.surface.height];
+        let objects = match footprint {
+            Footprint::Nothing => None,
+            Footprint::Rect(rect) => Some(rect),
+            Footprint::Whole => Some(whole_frame),
         };
+        let objects = objects.filter(|r| r[2] > 0 && r[3] > 0);
+        let mut blocks = Blocks::new(ctx.surface.width, ctx.surface.height);
+        if let Some(rect) = objects {
+            blocks.add_rect(rect);
+        }
+        for view in &views {
+            match shadow_silhouette(&ctx.surface.camera, view, size, &padded(&receivers)) {
+                Silhouette::Nothing => {}
+                Silhouette::Anywhere => blocks.add_rect(whole_frame),
+                Silhouette::Hull(points) => blocks.add_hull(&points),
+            }
+        }
+        let rect = blocks.bounds();
+        if rect != Some(whole_frame) {
+            let raw = &self.layers.as_ref().expect("begin comes first").raw[k];
+            let extent = out.texture.size();
+            ctx.encoder.copy_texture_to_texture(
+                layer_copy(&raw.texture, k as u32, [0, 0]),
+                out.texture.as_image_copy(),
+                extent,
+            );
+        }
+        let Some(rect) = rect else { return };
         // The whole scene's box, which dragging does not change: the permanent views stay put.
         let whole = light_frusta(ctx.light, &padded(&ctx.live.fit_bounds()), size).views;
-        let (p, n) = (whole.len() as u32, views.len() as u32);
-        if self.maps.as_ref().is_none_or(|(m, _)| m.layers < p + n || m.size != size) {
-            // Room for a power of two of views: a 1024² layer is 4 MiB, so no spare layers for one
-            // object's single frustum, yet a drag that grows from one view to six reallocates once.
-            let capacity = (p + n).max(1).next_power_of_two();
-            self.permanent = 0;
+        self.pending.push(Pending {
+            light: ctx.light_id,
+            layer: k as u32,
+            uniform: LightUniform::new(ctx.light),
+            rect,
+            blocks: blocks.indices(),
+            objects,
+            views,
+            whole,
+            redraw,
+        });
+    }
+
+    /// Draws the queued lights' maps and runs their lookup, one dispatch over every light's
+    /// footprint, then copies each light's footprint into its layer (`outs[k]`: the `k`-th
+    /// light's). `permanent`: the surface the raw layers were resolved over.
+    pub fn run(&mut self, ctx: &mut FrameContext<'_>, permanent: &SurfaceInputs, outs: &[&VisibilityLayer]) {
+        if self.pending.is_empty() {
+            return;
+        }
+        let shared = ctx.shared;
+        let size = map_size(ctx.surface.width, ctx.surface.height);
+        // Slots for the lights' views of the whole scene: kept from frame to frame, new ones
+        // after the last.
+        for p in &self.pending {
+            let fits = self.permanent.iter().any(|v| v.light == p.light && v.count == p.whole.len() as u32);
+            if !fits {
+                self.permanent.retain(|v| v.light != p.light);
+                let count = p.whole.len() as u32;
+                self.permanent.push(PermanentViews { light: p.light, first: self.next_slot, count, drawn: false });
+                self.next_slot += count;
+            }
+        }
+        let needed = self.next_slot;
+        if self.maps.as_ref().is_none_or(|(m, _)| m.layers < needed || m.size != size) {
+            // Room for a power of two of views: a 1024² layer is 4 MiB, and a drag that grows
+            // from one view to six reallocates once.
+            let capacity = needed.max(1).next_power_of_two();
             let maps = ShadowMapArray::new(shared, size, capacity, capacity);
-            let bias = BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, size as f32, 0.0), mode: Vec4::ZERO };
-            ctx.gpu.queue.write_buffer(&self.bias, 0, bytemuck::bytes_of(&bias));
+            ctx.gpu.queue.write_buffer(&self.bias, 0, bytemuck::bytes_of(&bias(size)));
             let group = lookup_group(shared, &maps, &self.bias, false);
             self.maps = Some((maps, group));
+            for v in &mut self.permanent {
+                v.drawn = false;
+            }
         }
         let (maps, group) = self.maps.as_mut().expect("made above");
         let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
-        if self.permanent != p {
-            maps.set_views(&ctx.gpu.queue, 0, &whole);
-            for i in 0..p {
-                maps.render(ctx, i, i, &raster);
+        let temporary: u32 = self.pending.iter().map(|p| p.views.len() as u32).sum();
+        let max = shared.gpu.device.limits().max_texture_dimension_2d;
+        if self.atlas.as_ref().is_none_or(|a| a.capacity() < temporary || a.tile != size) {
+            let atlas = Atlas::new(shared, size, temporary.max(1).next_power_of_two(), max, &self.atlas_bias);
+            self.atlas = Some(atlas);
+        }
+        let atlas = self.atlas.as_mut().expect("made above");
+        let mut entries = Vec::with_capacity(self.pending.len());
+        // Per workgroup: the entry, and the block's position (x | y << 16, in blocks).
+        let (mut work, mut dragged) = (Vec::new(), Vec::new());
+        let per_row = ctx.surface.width.div_ceil(GROUP);
+        let block = |i: u32, b: u32| [i, (b % per_row) | ((b / per_row) << 16)];
+        let mut next = 0;
+        for (i, p) in self.pending.iter().enumerate() {
+            let slots = self.permanent.iter_mut().find(|v| v.light == p.light).expect("given above");
+            if p.redraw || !slots.drawn {
+                maps.set_views(&ctx.gpu.queue, slots.first, &p.whole);
+                for i in slots.first..slots.first + slots.count {
+                    maps.render(ctx, i, i, &raster);
+                }
+                ctx.cache.work.temporary_views += slots.count;
+                slots.drawn = true;
             }
-            ctx.cache.work.temporary_views += p;
-            self.permanent = p;
+            let n = p.views.len() as u32;
+            let layers: Vec<u32> = (next..next + n).map(|t| atlas.place(t).0).collect();
+            atlas.maps.set_views_in(&ctx.gpu.queue, next, &p.views, &layers);
+            ctx.cache.work.temporary_views += n;
+            let cube = u32::from(slots.count == 6);
+            let views = [next, n, slots.first, slots.count];
+            let e = i as u32;
+            entries.push(Entry { rect: p.rect, views, flags: [cube, p.layer, 0, e] });
+            work.extend(p.blocks.iter().map(|&b| block(e, b)));
+            if let Some(rect) = p.objects {
+                let mut objects = Blocks::new(ctx.surface.width, ctx.surface.height);
+                objects.add_rect(rect);
+                dragged.extend(objects.indices().into_iter().map(|b| block(e, b)));
+            }
+            next += n;
         }
-        maps.set_views(&ctx.gpu.queue, p, &views);
-        for i in p..p + n {
-            maps.render_casters(ctx, i, i, &raster, &[Mobility::Temporary], true);
+        // Every light's views of the dragged objects, a pass per atlas layer (one in general).
+        for layer in 0..atlas.maps.layers {
+            let tiles: Vec<(u32, Option<[u32; 4]>)> = (0..temporary)
+                .map(|t| (t, atlas.place(t)))
+                .filter(|(_, (l, _))| *l == layer)
+                .map(|(t, (_, rect))| (t, Some(rect)))
+                .collect();
+            if !tiles.is_empty() {
+                atlas.maps.render_tiles(ctx, layer, &tiles, &raster, &[Mobility::Temporary], true);
+            }
         }
-        ctx.cache.work.temporary_views += n;
-        let cube = u32::from(p == 6);
-        ctx.gpu.queue.write_buffer(&self.counts, 0, bytemuck::bytes_of(&TemporaryUniform { counts: [n, p, cube, 0] }));
-        ctx.gpu.queue.write_buffer(&self.region, 0, bytemuck::bytes_of(&RegionUniform { rect }));
         let device = &shared.gpu.device;
-        let own = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("temporary"),
-            layout: &layout(shared),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&raw.view) },
-                wgpu::BindGroupEntry { binding: 1, resource: self.counts.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&permanent.depth) },
-            ],
-        });
-        let pipeline = shared.resolve_pipeline(
-            "temporary",
-            include_str!("temporary.wgsl"),
-            "main",
-            &[&lookup_layout(shared), &layout(shared)],
-            &[],
-        );
-        let group0 = shared.resolve_bind_group_in(ctx.surface, ctx.light_buffer, out, &self.region);
-        dispatch_resolve_rect(ctx, "temporary objects", &pipeline, &[&group0, group, &own], rect);
+        let count = entries.len() as u64;
+        if self.batch.size() < batch_bytes(count) {
+            self.batch = batch_buffer(device, count.next_power_of_two());
+            self.lights = lights_buffer(device, count.next_power_of_two());
+        }
+        for (buffer, items) in [(&mut self.work, &work), (&mut self.dragged_work, &dragged)] {
+            if buffer.size() < work_bytes(items.len() as u64) {
+                *buffer = work_buffer(device, (items.len() as u64).next_power_of_two());
+            }
+        }
+        let queue = &ctx.gpu.queue;
+        queue.write_buffer(&self.batch, 0, bytemuck::bytes_of(&[entries.len() as u32, 0, 0, 0]));
+        queue.write_buffer(&self.batch, 16, bytemuck::cast_slice(&entries));
+        for (buffer, items) in [(&self.work, &work), (&self.dragged_work, &dragged)] {
+            queue.write_buffer(buffer, 0, bytemuck::bytes_of(&[items.len() as u32, 0, 0, 0]));
+            queue.write_buffer(buffer, 16, bytemuck::cast_slice(items));
+        }
+        let uniforms: Vec<LightUniform> = self.pending.iter().map(|p| p.uniform).collect();
+        queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(&uniforms));
+        let layers = self.layers.as_ref().expect("begin comes first");
+        let own = |work: &wgpu::Buffer| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("temporary"),
+                layout: &layout(shared),
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(&layers.raw_view()),
+                    },
+                    wgpu::BindGroupEntry { binding: 1, resource: self.batch.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&permanent.depth) },
+                    wgpu::BindGroupEntry { binding: 3, resource: self.lights.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&layers.out_view) },
+                    wgpu::BindGroupEntry { binding: 5, resource: work.as_entire_binding() },
+                ],
+            })
+        };
+        // Group 0's light and output are the first light's: the lookups read their lights from
+        // group 2 and write the array.
+        let first = self.pending[0].layer as usize;
+        let group0 = shared.resolve_bind_group_in(ctx.surface, ctx.light_buffer, outs[first], &self.region);
+        // Every light's shadow footprint, then the pixels that show a dragged object again, with
+        // the permanent casters' shadow (a separate pipeline: a CPU adapter runs every branch of
+        // a shader, taken or not, so the common case must not carry the rare one).
+        // Pixels of a light's footprint outside its blocks keep the technique's visibility.
+        for p in &self.pending {
+            let [x, y, w, h] = p.rect;
+            ctx.encoder.copy_texture_to_texture(
+                layer_copy(&layers.raw_texture, p.layer, [x, y]),
+                layer_copy(&layers.out_texture, p.layer, [x, y]),
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
+        for (items, blocks, dragged) in [(&self.work, work.len(), false), (&self.dragged_work, dragged.len(), true)] {
+            let blocks = blocks as u32;
+            if blocks == 0 {
+                continue;
+            }
+            let key = if dragged { "temporary (dragged objects)" } else { "temporary" };
+            let pipeline = shared.resolve_pipeline_with(
+                key,
+                include_str!("temporary.wgsl"),
+                "main",
+                &[&lookup_layout(shared), &layout(shared), &lookup_layout(shared)],
+                &[],
+                if dragged { &["DRAGGED"] } else { &[] },
+            );
+            let own = own(items);
+            let timestamps = ctx.timer.compute_pass(device, PassKind::Visibility);
+            let mut pass = ctx
+                .encoder
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(key), timestamp_writes: timestamps });
+            pass.set_pipeline(&pipeline);
+            for (i, g) in [&group0, group, &own, &atlas.group].into_iter().enumerate() {
+                pass.set_bind_group(i as u32, Some(g), &[]);
+            }
+            let wide = device.limits().max_compute_workgroups_per_dimension;
+            pass.dispatch_workgroups(blocks.min(wide), blocks.div_ceil(wide), 1);
+        }
+        for p in &self.pending {
+            let [x, y, w, h] = p.rect;
+            ctx.encoder.copy_texture_to_texture(
+                layer_copy(&layers.out_texture, p.layer, [x, y]),
+                wgpu::TexelCopyTextureInfo {
+                    texture: &outs[p.layer as usize].texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d { x, y, z: 0 },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
+        self.pending.clear();
     }
+}
+
+/// The dragged objects' maps of every light: tiles of `tile`² texels, `per_side` to a side in
+/// each layer of an array (one layer unless the device's largest texture is too small).
+struct Atlas {
+    maps: ShadowMapArray,
+    group: wgpu::BindGroup,
+    tile: u32,
+    per_side: u32,
+}
+
+impl Atlas {
+    /// Room for `capacity` tiles of `tile`² in layers of at most `max` texels a side; the lookup
+    /// reads `bias` (written here).
+    fn new(shared: &Shared, tile: u32, capacity: u32, max: u32, bias: &wgpu::Buffer) -> Self {
+        let (per_side, layers) = atlas_shape(tile, capacity, max);
+        // A view slot for every tile: `capacity` below counts them.
+        let maps = ShadowMapArray::new(shared, per_side * tile, layers, layers * per_side * per_side);
+        let values = Vec4::new(NORMAL_OFFSET, 0.0, tile as f32, per_side as f32);
+        shared.gpu.queue.write_buffer(bias, 0, bytemuck::bytes_of(&BiasUniform { values, mode: Vec4::ZERO }));
+        let group = lookup_group(shared, &maps, bias, false);
+        Self { maps, group, tile, per_side }
+    }
+
+    fn capacity(&self) -> u32 {
+        self.maps.capacity
+    }
+
+    /// The layer and viewport of tile `t`.
+    fn place(&self, t: u32) -> (u32, [u32; 4]) {
+        tile_place(t, self.tile, self.per_side)
+    }
+}
+
+/// Tiles to a side and layers of an atlas of `capacity` tiles of `tile`² texels whose layers are
+/// at most `max` texels a side: square layers, as few as fit.
+fn atlas_shape(tile: u32, capacity: u32, max: u32) -> (u32, u32) {
+    let fit = (max / tile.max(1)).max(1);
+    let mut per_side = 1;
+    while per_side * per_side < capacity && per_side < fit {
+        per_side += 1;
+    }
+    (per_side, capacity.max(1).div_ceil(per_side * per_side))
+}
+
+/// The layer and viewport of tile `t` in an atlas of `per_side` tiles of `tile`² to a side: row by
+/// row, then the next layer (`temporary.wgsl`'s `atlas_depth`).
+fn tile_place(t: u32, tile: u32, per_side: u32) -> (u32, [u32; 4]) {
+    let per_layer = per_side * per_side;
+    let i = t % per_layer;
+    ((t / per_layer), [(i % per_side) * tile, (i / per_side) * tile, tile, tile])
+}
+
+impl Layers {
+    fn new(shared: &Shared, width: u32, height: u32, lights: &[LightId]) -> Self {
+        let device = &shared.gpu.device;
+        let array = |label, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: lights.len().max(1) as u32 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: VISIBILITY_FORMAT,
+                usage: usage
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        };
+        let raw_texture = array("visibility before dragging", wgpu::TextureUsages::STORAGE_BINDING);
+        let out_texture = array("visibility with dragged objects", wgpu::TextureUsages::STORAGE_BINDING);
+        let raw = (0..lights.len() as u32)
+            .map(|k| VisibilityLayer {
+                texture: raw_texture.clone(),
+                view: raw_texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: k,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                }),
+            })
+            .collect();
+        let out_view = out_texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        Self { raw, raw_texture, out_texture, out_view, lights: lights.to_vec() }
+    }
+
+    fn raw_view(&self) -> wgpu::TextureView {
+        self.raw_texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        })
+    }
+}
+
+/// Layer `layer` of an array texture at `origin`, for a copy.
+fn layer_copy(texture: &wgpu::Texture, layer: u32, origin: [u32; 2]) -> wgpu::TexelCopyTextureInfo<'_> {
+    wgpu::TexelCopyTextureInfo {
+        texture,
+        mip_level: 0,
+        origin: wgpu::Origin3d { x: origin[0], y: origin[1], z: layer },
+        aspect: wgpu::TextureAspect::All,
+    }
+}
+
+/// The lookups' bias for maps of `size` texels: `hard`'s normal offset.
+fn bias(size: u32) -> BiasUniform {
+    BiasUniform { values: Vec4::new(NORMAL_OFFSET, 0.0, size as f32, 0.0), mode: Vec4::ZERO }
+}
+
+/// Bytes of a `Work` list of `count` workgroups: its count, then the workgroups.
+fn work_bytes(count: u64) -> u64 {
+    16 + count * 8
+}
+
+fn work_buffer(device: &wgpu::Device, count: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("temporary work"),
+        size: work_bytes(count.max(1)),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Bytes of a `Batch` of `count` lights: its count, then the entries.
+fn batch_bytes(count: u64) -> u64 {
+    16 + count * std::mem::size_of::<Entry>() as u64
+}
+
+fn batch_buffer(device: &wgpu::Device, count: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("temporary batch"),
+        size: batch_bytes(count),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn lights_buffer(device: &wgpu::Device, count: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("temporary lights"),
+        size: count * std::mem::size_of::<LightUniform>() as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Where on screen a temporary object's map `view` (of `size` texels) may darken something.
+#[derive(Debug)]
+enum Silhouette {
+    Nothing,
+    Anywhere,
+    /// Pixel positions whose convex hull it is.
+    Hull(Vec<Vec2>),
 }
 
 /// The pixels a temporary object's map `view` (of `size` texels) may darken: the receivers' box
@@ -277,14 +678,147 @@ impl TemporaryShadows {
 /// projected: the sun's prism through a chair in `room` runs past the camera, and its corners
 /// behind the eye made the whole screen the footprint (at 640 × 480 that light's lookup fell from
 /// 307 200 pixels to 161 759, the drag frame ÷ still frame from 2.15 to 1.97; 128 × 96: 1.89 and
-/// 1.93 → 1.83 and 1.81, one run each alternated).
-fn shadow_footprint(camera: &CameraUniform, view: &ShadowView, size: u32, receivers: &Aabb) -> Footprint {
+/// 1.93 → 1.83 and 1.81, one run each alternated). The silhouette, not its bounding rectangle,
+/// is what [`Blocks`] covers: a shadow's wedge across the floor fills a fraction of its box.
+fn shadow_silhouette(camera: &CameraUniform, view: &ShadowView, size: u32, receivers: &Aabb) -> Silhouette {
     // Two texels wider than the window; the near plane a hair beyond for round-off (reversed Z).
     let body = ConvexBody::from_aabb(receivers).clip_to_view(&view.view_projection, 4.0 / size as f32, 1e-4);
     if body.is_empty() {
-        return Footprint::Nothing;
+        return Silhouette::Nothing;
     }
-    camera.footprint_of_body(&body)
+    match camera.pixels_of_body(&body) {
+        None => Silhouette::Anywhere,
+        Some(points) if points.is_empty() => Silhouette::Nothing,
+        Some(points) => Silhouette::Hull(points),
+    }
+}
+
+/// The blocks of `GROUP`² pixels of an output a light's lookup covers (a workgroup each).
+struct Blocks {
+    width: u32,
+    height: u32,
+    per_row: u32,
+    taken: Vec<bool>,
+}
+
+/// Pixels by which a block is widened before it is tested against a silhouette: the projected
+/// corners' round-off, and the rasteriser's (as `CameraUniform::footprint`'s pixel).
+const SILHOUETTE_MARGIN: f32 = 1.5;
+
+impl Blocks {
+    fn new(width: u32, height: u32) -> Self {
+        let per_row = width.div_ceil(GROUP);
+        Self { width, height, per_row, taken: vec![false; (per_row * height.div_ceil(GROUP)) as usize] }
+    }
+
+    /// Every block that holds a pixel of `rect` (x, y, width, height).
+    fn add_rect(&mut self, rect: [u32; 4]) {
+        let [x, y, w, h] = rect;
+        let (x1, y1) = ((x + w).min(self.width), (y + h).min(self.height));
+        if x1 <= x || y1 <= y {
+            return;
+        }
+        for by in y / GROUP..y1.div_ceil(GROUP) {
+            for bx in x / GROUP..x1.div_ceil(GROUP) {
+                self.taken[(by * self.per_row + bx) as usize] = true;
+            }
+        }
+    }
+
+    /// Every block that meets the convex hull of `points` (pixel positions), widened by
+    /// [`SILHOUETTE_MARGIN`].
+    fn add_hull(&mut self, points: &[Vec2]) {
+        let hull = convex_hull(points);
+        let m = SILHOUETTE_MARGIN;
+        let (lo, hi) = hull
+            .iter()
+            .fold((Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (w, h) = (self.width as f32, self.height as f32);
+        let (x0, y0) = ((lo.x - m).clamp(0.0, w), (lo.y - m).clamp(0.0, h));
+        let (x1, y1) = ((hi.x + m).clamp(0.0, w), (hi.y + m).clamp(0.0, h));
+        if x1 <= x0 || y1 <= y0 {
+            return;
+        }
+        let g = GROUP as f32;
+        for by in (y0 / g) as u32..((y1 / g).ceil() as u32).min(self.height.div_ceil(GROUP)) {
+            for bx in (x0 / g) as u32..((x1 / g).ceil() as u32).min(self.per_row) {
+                let lo = Vec2::new(bx as f32 * g - m, by as f32 * g - m);
+                let hi = lo + Vec2::splat(g + 2.0 * m);
+                if square_meets_hull(lo, hi, &hull) {
+                    self.taken[(by * self.per_row + bx) as usize] = true;
+                }
+            }
+        }
+    }
+
+    /// The blocks taken, as `bx + by · per_row`, in order.
+    fn indices(&self) -> Vec<u32> {
+        (0..self.taken.len() as u32).filter(|&i| self.taken[i as usize]).collect()
+    }
+
+    /// The pixels of the blocks taken, bounded (`None`: none), within the output.
+    fn bounds(&self) -> Option<[u32; 4]> {
+        let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
+        for i in self.indices() {
+            let (bx, by) = (i % self.per_row, i / self.per_row);
+            (x0, y0) = (x0.min(bx * GROUP), y0.min(by * GROUP));
+            (x1, y1) = (x1.max((bx + 1) * GROUP), y1.max((by + 1) * GROUP));
+        }
+        let (x1, y1) = (x1.min(self.width), y1.min(self.height));
+        (x1 > x0 && y1 > y0).then_some([x0, y0, x1 - x0, y1 - y0])
+    }
+}
+
+/// The convex hull of `points` (Andrew's monotone chain), counter-clockwise in a y-up frame; a
+/// point or a segment where they are collinear.
+fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
+    let mut p: Vec<Vec2> = points.iter().copied().filter(|q| q.is_finite()).collect();
+    p.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    p.dedup();
+    if p.len() < 3 {
+        return p;
+    }
+    let cross = |o: Vec2, a: Vec2, b: Vec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<Vec2> = Vec::with_capacity(2 * p.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &Vec2>> =
+            if pass == 0 { Box::new(p.iter()) } else { Box::new(p.iter().rev()) };
+        for &q in iter {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// Whether the axis-aligned square `lo..hi` meets the convex polygon `hull` (from
+/// [`convex_hull`], or the point or segment it gives). Separating axes: the square's (the hull's
+/// bounds) and each hull edge's normal.
+fn square_meets_hull(lo: Vec2, hi: Vec2, hull: &[Vec2]) -> bool {
+    let (hlo, hhi) = hull
+        .iter()
+        .fold((Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY)), |(a, b), p| (a.min(*p), b.max(*p)));
+    if hhi.x < lo.x || hlo.x > hi.x || hhi.y < lo.y || hlo.y > hi.y {
+        return false;
+    }
+    let corners = [lo, Vec2::new(hi.x, lo.y), hi, Vec2::new(lo.x, hi.y)];
+    if hull.len() < 3 {
+        // A point (the bounds said it all) or a segment: the corners not all on one side.
+        return hull.len() < 2 || {
+            let (a, b) = (hull[0], hull[1]);
+            let sides = corners.map(|c| (b - a).perp_dot(c - a));
+            !(sides.iter().all(|&d| d > 0.0) || sides.iter().all(|&d| d < 0.0))
+        };
+    }
+    (0..hull.len()).all(|i| {
+        let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+        // Counter-clockwise: the inside is on the left of each edge.
+        corners.iter().any(|&c| (b - a).perp_dot(c - a) >= 0.0)
+    })
 }
 
 /// An object's bounds with a little room, so that its silhouette never touches the map's border.
@@ -295,12 +829,25 @@ fn padded(b: &Aabb) -> Aabb {
 
 fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("temporary", || {
+        let compute = wgpu::ShaderStages::COMPUTE;
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("temporary"),
             entries: &[
-                texture_entry(0, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
-                storage_entry(1, wgpu::ShaderStages::COMPUTE, true),
-                texture_entry(2, wgpu::ShaderStages::COMPUTE, UNFILTERED, wgpu::TextureViewDimension::D2),
+                texture_entry(0, compute, UNFILTERED, wgpu::TextureViewDimension::D2Array),
+                storage_entry(1, compute, true),
+                texture_entry(2, compute, UNFILTERED, wgpu::TextureViewDimension::D2),
+                storage_entry(3, compute, true),
+                storage_entry(5, compute, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: compute,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: VISIBILITY_FORMAT,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                    },
+                    count: None,
+                },
             ],
         })
     })
@@ -329,6 +876,86 @@ mod tests {
     /// A lamp high on the left, a small object below and right of it: the object's shadow falls
     /// further right and down. The footprint covers where the shadow falls and leaves out the
     /// space between the lamp and the object, which the side planes alone keep.
+    /// The blocks a silhouette takes hold every pixel whose square meets it (brute force over
+    /// random convex polygons, some off screen), and none farther than a block and the margin.
+    #[test]
+    fn blocks_cover_exactly_the_pixels_a_silhouette_meets() {
+        let (width, height) = (100, 60);
+        let mut seed = 7u64;
+        let mut random = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for case in 0..300 {
+            let centre = Vec2::new(random() * 140.0 - 20.0, random() * 100.0 - 20.0);
+            let n = 1 + (random() * 9.0) as usize;
+            let points: Vec<Vec2> = (0..n)
+                .map(|_| centre + Vec2::new(random() - 0.5, random() - 0.5) * Vec2::new(80.0, 50.0) * random())
+                .collect();
+            let hull = convex_hull(&points);
+            let mut blocks = Blocks::new(width, height);
+            blocks.add_hull(&points);
+            // The distance from a point to the hull (0 inside).
+            let distance = |q: Vec2| -> f32 {
+                if hull.len() >= 3
+                    && (0..hull.len()).all(|i| (hull[(i + 1) % hull.len()] - hull[i]).perp_dot(q - hull[i]) >= 0.0)
+                {
+                    return 0.0;
+                }
+                (0..hull.len())
+                    .map(|i| {
+                        let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+                        let t = ((q - a).dot(b - a) / (b - a).length_squared().max(1e-12)).clamp(0.0, 1.0);
+                        q.distance(a + (b - a) * t)
+                    })
+                    .fold(f32::INFINITY, f32::min)
+            };
+            for y in 0..height {
+                for x in 0..width {
+                    let taken = blocks.taken[((y / GROUP) * blocks.per_row + x / GROUP) as usize];
+                    let centre = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                    // A pixel's square meets the hull where its centre is within half a diagonal.
+                    if distance(centre) <= 0.5 {
+                        assert!(taken, "case {case}: pixel ({x}, {y}) meets {hull:?} but its block is not taken");
+                    }
+                }
+            }
+            for by in 0..height.div_ceil(GROUP) {
+                for bx in 0..blocks.per_row {
+                    let centre = Vec2::new((bx * GROUP) as f32 + 4.0, (by * GROUP) as f32 + 4.0);
+                    // A block's centre is within 4√2 of its pixels; the margin widens it.
+                    if distance(centre) > 4.0 * std::f32::consts::SQRT_2 + SILHOUETTE_MARGIN * 1.5 {
+                        let i = (by * blocks.per_row + bx) as usize;
+                        assert!(!blocks.taken[i], "case {case}: block ({bx}, {by}) is far from {hull:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Tiles never overlap, stay within their layer, and the layers are as few as the largest
+    /// texture allows.
+    #[test]
+    fn atlas_tiles_are_disjoint_and_within_their_layer() {
+        for (tile, capacity, max) in
+            [(256, 1, 8192), (256, 4, 8192), (256, 8, 8192), (1024, 64, 8192), (1024, 48, 2048)]
+        {
+            let (per_side, layers) = atlas_shape(tile, capacity, max);
+            assert!(per_side * tile <= max.max(tile), "{per_side} tiles of {tile} exceed {max}");
+            assert!(layers * per_side * per_side >= capacity, "room for {capacity}");
+            let fewest = capacity.div_ceil((max / tile).pow(2));
+            assert_eq!(layers, fewest.max(1), "layers for {capacity} tiles of {tile} within {max}");
+            let mut taken = std::collections::HashSet::new();
+            for t in 0..capacity {
+                let (layer, [x, y, w, h]) = tile_place(t, tile, per_side);
+                assert!(layer < layers && x + w <= per_side * tile && y + h <= per_side * tile);
+                assert!(taken.insert((layer, x, y)), "tile {t} overlaps another");
+            }
+        }
+        // Four lights' single views at 128 × 96: one 512² layer.
+        assert_eq!(atlas_shape(256, 4, 8192), (2, 1));
+    }
+
     #[test]
     fn the_footprint_leaves_out_the_space_between_light_and_object() {
         let kind = LightKind::Point { position: Vec3::new(-4.0, 6.0, 0.0), radius: 0.0 };
@@ -339,15 +966,17 @@ mod tests {
         let views = light_frusta(&light, &object, size).views;
         assert_eq!(views.len(), 1, "a small object far from the lamp: one frustum");
         let cam = camera();
-        let Footprint::Rect(rect) = shadow_footprint(&cam, &views[0], size, &receivers) else {
+        let Silhouette::Hull(hull) = shadow_silhouette(&cam, &views[0], size, &receivers) else {
             panic!("the shadow is on screen");
         };
+        let mut blocks = Blocks::new(200, 200);
+        blocks.add_hull(&hull);
+        let rect = blocks.bounds().expect("blocks taken");
         let pixel = |p: Vec3| match cam.footprint_of([p]) {
             Footprint::Rect(r) => (r[0] + r[2] / 2, r[1] + r[3] / 2),
             other => panic!("{p} is on screen: {other:?}"),
         };
-        let inside =
-            |(x, y): (u32, u32)| x >= rect[0] && x < rect[0] + rect[2] && y >= rect[1] && y < rect[1] + rect[3];
+        let inside = |(x, y): (u32, u32)| blocks.taken[((y / GROUP) * blocks.per_row + x / GROUP) as usize];
         // Beyond the object along the light's rays (the shadow) and the object itself: covered.
         let lamp = Vec3::new(-4.0, 6.0, 0.0);
         for t in [1.0, 1.3, 1.6] {

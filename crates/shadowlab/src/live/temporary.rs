@@ -765,7 +765,7 @@ impl Blocks {
             (x1, y1) = (x1.max((bx + 1) * GROUP), y1.max((by + 1) * GROUP));
         }
         let (x1, y1) = (x1.min(self.width), y1.min(self.height));
-        (x1 > x0 && y1 > y0).then_some([x0, y0, x1 - x0, y1 - y0])
+        (x1 > x0 && y1 > y0).then(|| [x0, y0, x1 - x0, y1 - y0])
     }
 }
 
@@ -881,6 +881,8 @@ mod tests {
     #[test]
     fn blocks_cover_exactly_the_pixels_a_silhouette_meets() {
         let (width, height) = (100, 60);
+        // Nothing taken: no bounds (and no underflow computing them).
+        assert_eq!(Blocks::new(width, height).bounds(), None);
         let mut seed = 7u64;
         let mut random = move || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);

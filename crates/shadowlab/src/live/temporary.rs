@@ -123,7 +123,7 @@ pub struct TemporaryShadows {
     lights: wgpu::Buffer,
     work: wgpu::Buffer,
     dragged_work: wgpu::Buffer,
-    /// Group 0's region (unused: the batches say which pixels are looked up).
+    /// Group 0's region (unused: the work lists say which pixels are looked up).
     region: wgpu::Buffer,
     /// The lights [`TemporaryShadows::add`] queued for this frame's lookup.
     pending: Vec<Pending>,

@@ -749,6 +749,42 @@ fn drags_as_temporary_objects_keep_the_maps_that_permanent_moves_re_render() {
     assert!(total(&temporary) < total(&permanent) && total(&permanent) < total(&uncached));
 }
 
+/// `--runs N` plays the timeline N times on new engines and keeps each frame's least time: never
+/// above the first run's, the same work in every run (no target: nothing depends on time), and
+/// the summary's figures from those least times; a drag's steps leave out its first frame.
+#[test]
+fn runs_keep_each_frames_least_time() {
+    let dir = temp("runs");
+    // The dynamic chair dragged over frames 2..4 (picked up on 2), released on 5.
+    let file = timeline_file(
+        &dir,
+        "drag",
+        "frames = 10\n[[event]]\nframe = 2\ndrag = \"chair east\"\nby = [-0.4, 0.0, 0.3]\nover = 3\n",
+    );
+    let t = play(&dir, &file, &["--check-every", "0", "--runs", "3"]);
+    let least = &t["summary"]["least_over_runs"];
+    assert_eq!(least["runs"].as_u64(), Some(3), "{least}");
+    assert_eq!(least["same_work"].as_bool(), Some(true), "{least}");
+    let frames = t["frames"].as_array().unwrap();
+    let ms = |f: &Value, key: &str| f[key].as_f64().unwrap_or_else(|| panic!("{key} in {f}"));
+    for f in frames {
+        assert!(ms(f, "frame_ms_least") <= ms(f, "frame_ms"), "{f}");
+        assert!(ms(f, "frame_ms_least") > 0.0, "{f}");
+    }
+    let max = |keep: &dyn Fn(&Value) -> bool, key: &str| {
+        frames.iter().filter(|f| keep(f)).map(|f| ms(f, key)).fold(f64::NEG_INFINITY, f64::max)
+    };
+    let step = |f: &Value| f["dragging"].as_bool() == Some(true) && f["index"].as_u64() != Some(2);
+    let dragging = |f: &Value| f["dragging"].as_bool() == Some(true);
+    assert_eq!(frames.iter().filter(|f| dragging(f)).count(), 3);
+    assert_eq!(least["max_drag_step_ms"].as_f64(), Some(max(&step, "frame_ms_least")), "{least}");
+    assert_eq!(least["max_drag_ms"].as_f64(), Some(max(&dragging, "frame_ms_least")), "{least}");
+    assert_eq!(t["summary"]["max_drag_step_ms"].as_f64(), Some(max(&step, "frame_ms")), "{}", t["summary"]);
+    // One run: no least times.
+    let once = play(&dir, &file, &["--check-every", "0"]);
+    assert!(once["summary"]["least_over_runs"].is_null() && once["frames"][0]["frame_ms_least"].is_null());
+}
+
 /// `--target-ms auto`: 2 × the median of 10 uncached frames with `hard` on every light, scaled by
 /// `--preference` (speed: × 0.5), written with where it came from.
 #[test]

@@ -121,6 +121,12 @@ pub struct Args {
     /// balanced ×1, speed ×0.5.
     #[arg(long, value_name = "MS|auto", value_parser = parse_target, allow_hyphen_values = true)]
     target_ms: Option<Target>,
+    /// Play the timeline this many times, each on a new engine, and report each frame's least
+    /// time over the runs beside the first run's (`frames[].frame_ms_least`,
+    /// `summary.least_over_runs`): a shared machine's interruptions only add time, so the least
+    /// measures the engine. Checks run in the first run only.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    runs: u32,
     /// Check the timeline and print its events per frame as JSON, without a GPU.
     #[arg(long)]
     dry_run: bool,
@@ -274,61 +280,40 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
             Some(info)
         }
     };
-    let mut r = Renderer::new(&gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
-    r.provide_light_meshes(setup.light_meshes.clone());
-    r.shadows.set_map_budget(setup.map_budget);
-    r.shadows.set_caching(!args.no_cache);
-    // The engine scales the target by the preference itself (the factors are powers of two: exact).
-    r.set_target_ms(target.as_ref().map(|t| t.ms / preference.budget_factor()));
-    r.shadows.set_preference(preference);
-    let none = TechniqueSpec::parse("none", &[])?;
     if let Some(plan) = specs.iter().find_map(Selected::auto) {
         for line in plan.describe() {
             println!("{line}");
         }
     }
-    // `auto` on lights the timeline adds: what each got, and why.
-    let mut auto_added = Vec::new();
-    let mut measured = Vec::new();
-    for i in 0..setup.scene.lights.len() as u32 {
-        if shadow_light(&mut r, LightId(i), &specs, &none, &mut auto_added)? {
-            measured.push(LightId(i));
-        }
-    }
     let settings = ReferenceSettings { samples: args.samples, seed: args.seed };
-    let k = args.check_every as usize;
-    let checked = |f: usize| {
-        k > 0 && (f.is_multiple_of(k) || plan.frames[f].has_event() || (f > 0 && plan.frames[f - 1].has_event()))
-    };
-
-    let bar = progress::bar(plan.frames.len() as u64, "timeline (GPU)");
-    let mut records = Vec::with_capacity(plan.frames.len());
-    let mut checks = Vec::new();
-    for (f, fp) in plan.frames.iter().enumerate() {
-        for step in &fp.steps {
-            apply(&mut r, step, &specs, &none, &mut measured, &mut auto_added).with_context(|| format!("frame {f}"))?;
+    let first =
+        play_once(&gpu, &setup, &args, &specs, &plan, target.as_ref(), preference, Some(&settings), "timeline (GPU)")?;
+    let Run { records, checks, auto_added, .. } = first;
+    // Each frame's least time over the runs: interruptions of a shared machine only add time.
+    let mut least: Vec<f64> = ms(&records, records.iter().all(|r| r.gpu_ms.is_some()));
+    let mut same_work = true;
+    for run in 1..args.runs {
+        let again = play_once(
+            &gpu,
+            &setup,
+            &args,
+            &specs,
+            &plan,
+            target.as_ref(),
+            preference,
+            None,
+            &format!("run {} of {}", run + 1, args.runs),
+        )?;
+        let gpu_timed = again.records.iter().all(|r| r.gpu_ms.is_some());
+        for (l, t) in least.iter_mut().zip(ms(&again.records, gpu_timed)) {
+            *l = l.min(t);
         }
-        let report = r.render().with_context(|| format!("frame {f}"))?;
-        records.push(FrameRecord {
-            gpu_ms: report.gpu.as_ref().map(|t| t.total()),
-            cpu_ms: report.cpu_ms,
-            work_ms: report.gpu.as_ref().map(|t| t.get(PassKind::Shadow)),
-            work: report.work,
-            cache_bytes: r.shadows.memory_bytes(),
-            width: r.width,
-            height: r.height,
-            lights: light_levels(&r),
-        });
-        if checked(f) {
-            bar.set_message(format!("check at frame {f}"));
-            checks.push(check(&r, f, &measured, &settings).with_context(|| format!("check at frame {f}"))?);
-            bar.set_message("timeline (GPU)");
-        }
-        bar.inc(1);
+        same_work &= again.records.iter().zip(&records).all(|(a, b)| a.work.counts() == b.work.counts());
     }
-    bar.finish_and_clear();
+    let runs = (args.runs > 1).then_some(Runs { count: args.runs, least, same_work });
 
-    let mut doc = document(&args, &name, &setup, &specs, &gpu, &plan, &records, &checks, target.as_ref());
+    let mut doc =
+        document(&args, &name, &setup, &specs, &gpu, &plan, &records, &checks, target.as_ref(), runs.as_ref());
     if let Some(p) = specs.iter().find_map(Selected::auto) {
         let mut choices = p.choices_json();
         if let Some(list) = choices.as_array_mut() {
@@ -344,6 +329,88 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     print_summary(&doc);
     println!("→ {}", args.out.join("report.html").display());
     Ok(())
+}
+
+/// One run of the timeline on a new engine.
+struct Run {
+    records: Vec<FrameRecord>,
+    checks: Vec<Check>,
+    auto_added: Vec<Value>,
+}
+
+/// Runs of the timeline after the first (`--runs`): each frame's least time over all runs.
+struct Runs {
+    count: u32,
+    least: Vec<f64>,
+    /// Every run did the same work in every frame (a target can make runs differ).
+    same_work: bool,
+}
+
+/// Plays the timeline once on a new engine; checks (with `settings`) every `--check-every` frames.
+#[allow(clippy::too_many_arguments)]
+fn play_once(
+    gpu: &shadowlab::Gpu,
+    setup: &crate::args::Setup,
+    args: &Args,
+    specs: &[Selected],
+    plan: &Plan,
+    target: Option<&TargetInfo>,
+    preference: Preference,
+    settings: Option<&ReferenceSettings>,
+    label: &str,
+) -> Result<Run> {
+    let mut r = Renderer::new(gpu, setup.scene.clone(), &setup.view, setup.width, setup.height);
+    r.provide_light_meshes(setup.light_meshes.clone());
+    r.shadows.set_map_budget(setup.map_budget);
+    r.shadows.set_caching(!args.no_cache);
+    // The engine scales the target by the preference itself (the factors are powers of two: exact).
+    r.set_target_ms(target.map(|t| t.ms / preference.budget_factor()));
+    r.shadows.set_preference(preference);
+    let none = TechniqueSpec::parse("none", &[])?;
+    // `auto` on lights the timeline adds: what each got, and why.
+    let mut auto_added = Vec::new();
+    let mut measured = Vec::new();
+    for i in 0..setup.scene.lights.len() as u32 {
+        if shadow_light(&mut r, LightId(i), specs, &none, &mut auto_added)? {
+            measured.push(LightId(i));
+        }
+    }
+    let k = if settings.is_some() { args.check_every as usize } else { 0 };
+    let checked = |f: usize| {
+        k > 0 && (f.is_multiple_of(k) || plan.frames[f].has_event() || (f > 0 && plan.frames[f - 1].has_event()))
+    };
+
+    let bar = progress::bar(plan.frames.len() as u64, label);
+    let mut records = Vec::with_capacity(plan.frames.len());
+    let mut checks = Vec::new();
+    for (f, fp) in plan.frames.iter().enumerate() {
+        for step in &fp.steps {
+            apply(&mut r, step, specs, &none, &mut measured, &mut auto_added).with_context(|| format!("frame {f}"))?;
+        }
+        let report = r.render().with_context(|| format!("frame {f}"))?;
+        records.push(FrameRecord {
+            gpu_ms: report.gpu.as_ref().map(|t| t.total()),
+            cpu_ms: report.cpu_ms,
+            work_ms: report.gpu.as_ref().map(|t| t.get(PassKind::Shadow)),
+            work: report.work,
+            cache_bytes: r.shadows.memory_bytes(),
+            width: r.width,
+            height: r.height,
+            lights: light_levels(&r),
+        });
+        if checked(f) {
+            bar.set_message(format!("check at frame {f}"));
+            checks.push(
+                check(&r, f, &measured, settings.expect("checks need settings"))
+                    .with_context(|| format!("check at frame {f}"))?,
+            );
+            bar.set_message(label.to_owned());
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    Ok(Run { records, checks, auto_added })
 }
 
 /// The median time (and its source: `gpu` when every frame has timestamps, else `cpu`) of
@@ -518,6 +585,7 @@ fn document(
     records: &[FrameRecord],
     checks: &[Check],
     target: Option<&TargetInfo>,
+    runs: Option<&Runs>,
 ) -> Value {
     let gpu_timed = records.iter().all(|r| r.gpu_ms.is_some());
     let times = ms(records, gpu_timed);
@@ -532,6 +600,7 @@ fn document(
                 "gpu_ms": r.gpu_ms,
                 "cpu_ms": r.cpu_ms,
                 "frame_ms": finite(times[i]),
+                "frame_ms_least": runs.map(|r| finite(r.least[i])),
                 "events": fp.events,
                 "work": r.work.counts().iter().map(|(k, v)| ((*k).to_owned(), json!(v))).collect::<serde_json::Map<_, _>>(),
                 "cache_bytes": r.cache_bytes,
@@ -561,6 +630,9 @@ fn document(
     let still_ms = pick(&|i| still[i]);
     let drag_ms = pick(&|i| plan.frames[i].dragging);
     let all_ms = pick(&|_| true);
+    // A drag's first frame (the pick-up) refills what the object leaves: the steps after it.
+    let stepping = |i: usize| plan.frames[i].dragging && i > 0 && plan.frames[i - 1].dragging;
+    let step_ms = pick(&stepping);
     let opt = |v: &[f64], f: fn(Vec<f64>) -> f64| if v.is_empty() { Value::Null } else { finite(f(v.to_vec())) };
     let max = |v: Vec<f64>| v.into_iter().fold(f64::NEG_INFINITY, f64::max);
     let rmse = |s: &ErrorStats| if s.pixels == 0 { Value::Null } else { finite(s.rmse()) };
@@ -587,6 +659,21 @@ fn document(
     let full = full_quality(plan, records);
     let target_ms = target.map(|t| t.ms);
     let over = |t: f64| all_ms.iter().filter(|&&ms| ms > t).count();
+    let least_over_runs = runs.map(|r| {
+        let least = |keep: &dyn Fn(usize) -> bool| -> Vec<f64> {
+            r.least.iter().enumerate().filter(|&(i, t)| keep(i) && t.is_finite()).map(|(_, t)| *t).collect()
+        };
+        json!({
+            "runs": r.count,
+            "same_work": r.same_work,
+            "median_still_ms": opt(&least(&|i| still[i]), median),
+            "max_still_ms": opt(&least(&|i| still[i]), max),
+            "median_drag_ms": opt(&least(&|i| plan.frames[i].dragging), median),
+            "max_drag_ms": opt(&least(&|i| plan.frames[i].dragging), max),
+            "max_drag_step_ms": opt(&least(&stepping), max),
+            "max_frame_ms": opt(&least(&|_| true), max),
+        })
+    });
     json!({
         "scene": setup.scene.name,
         "timeline": name,
@@ -608,6 +695,7 @@ fn document(
             "median_still_ms": opt(&still_ms, median),
             "max_drag_ms": opt(&drag_ms, max),
             "median_drag_ms": opt(&drag_ms, median),
+            "max_drag_step_ms": opt(&step_ms, max),
             "max_frame_ms": opt(&all_ms, max),
             "median_frame_ms": opt(&all_ms, median),
             "cache_bytes_first": records.first().map(|r| r.cache_bytes),
@@ -629,6 +717,7 @@ fn document(
             "level_switches": level_switches(records),
             "max_frame_over_target": target_ms.and_then(|t| (!all_ms.is_empty()).then(|| max(all_ms.clone()) / t)),
             "frames_over_target": target_ms.map(over),
+            "least_over_runs": least_over_runs,
         },
     })
 }
@@ -854,6 +943,19 @@ fn print_summary(doc: &Value) {
         mib(&s["cache_bytes_first"]),
         mib(&s["cache_bytes_last"]),
     );
+    let least = &s["least_over_runs"];
+    if least.is_object() {
+        println!(
+            "each frame's least over {} runs{}, {unit} ms: median still {}, max still {}, median drag {}, max drag step {}, max drag {}",
+            least["runs"],
+            if least["same_work"].as_bool() == Some(true) { "" } else { " (the runs' work differed)" },
+            fmt(&least["median_still_ms"], 2),
+            fmt(&least["max_still_ms"], 2),
+            fmt(&least["median_drag_ms"], 2),
+            fmt(&least["max_drag_step_ms"], 2),
+            fmt(&least["max_drag_ms"], 2),
+        );
+    }
     println!("{}", quality_line(doc));
     if let Some(checks) = doc["checks"].as_array().filter(|c| !c.is_empty()) {
         println!(

@@ -370,10 +370,8 @@ impl TemporaryShadows {
         }
         let atlas = self.atlas.as_mut().expect("made above");
         let mut entries = Vec::with_capacity(self.pending.len());
-        // Per workgroup: the entry, and the block's position (x | y << 16, in blocks).
-        let (mut work, mut dragged) = (Vec::new(), Vec::new());
-        let per_row = ctx.surface.width.div_ceil(GROUP);
-        let block = |i: u32, b: u32| [i, (b % per_row) | ((b / per_row) << 16)];
+        // Per block, the entries that look it up, and those whose dragged objects' pixels it holds.
+        let (mut work, mut dragged) = (LightsOfBlocks::default(), LightsOfBlocks::default());
         let mut next = 0;
         for (i, p) in self.pending.iter().enumerate() {
             let slots = self.permanent.iter_mut().find(|v| v.light == p.light).expect("given above");
@@ -393,14 +391,16 @@ impl TemporaryShadows {
             let views = [next, n, slots.first, slots.count];
             let e = i as u32;
             entries.push(Entry { rect: p.rect, views, flags: [cube, p.layer, 0, e] });
-            work.extend(p.blocks.iter().map(|&b| block(e, b)));
+            work.add(e, &p.blocks);
             if let Some(rect) = p.objects {
                 let mut objects = Blocks::new(ctx.surface.width, ctx.surface.height);
                 objects.add_rect(rect);
-                dragged.extend(objects.indices().into_iter().map(|b| block(e, b)));
+                dragged.add(e, &objects.indices());
             }
             next += n;
         }
+        let per_row = ctx.surface.width.div_ceil(GROUP);
+        let (work, dragged) = (work.items(per_row), dragged.items(per_row));
         // Every light's views of the dragged objects, a pass per atlas layer (one in general).
         for layer in 0..atlas.maps.layers {
             let tiles: Vec<(u32, Option<[u32; 4]>)> = (0..temporary)
@@ -623,7 +623,40 @@ fn bias(size: u32) -> BiasUniform {
 
 /// Bytes of a `Work` list of `count` workgroups: its count, then the workgroups.
 fn work_bytes(count: u64) -> u64 {
-    16 + count * 8
+    16 + count * 16
+}
+
+/// The lights (entries of a lookup) each 8 × 8 block is looked up for: one workgroup per block
+/// and 32 entries, which reads each pixel's surface once for all of them.
+#[derive(Default)]
+struct LightsOfBlocks {
+    /// Block index → a bit per entry, 32 to a word.
+    masks: std::collections::BTreeMap<u32, Vec<u32>>,
+}
+
+impl LightsOfBlocks {
+    fn add(&mut self, entry: u32, blocks: &[u32]) {
+        let (word, bit) = ((entry / 32) as usize, 1u32 << (entry % 32));
+        for &b in blocks {
+            let words = self.masks.entry(b).or_default();
+            if words.len() <= word {
+                words.resize(word + 1, 0);
+            }
+            words[word] |= bit;
+        }
+    }
+
+    /// The workgroups (`temporary.wgsl`, `struct Work`): the entries' bits, the block's position
+    /// (x | y << 16, in blocks), the first entry of the bits; in block order.
+    fn items(&self, per_row: u32) -> Vec<[u32; 4]> {
+        let mut items = Vec::with_capacity(self.masks.len());
+        for (&b, words) in &self.masks {
+            for (w, &mask) in words.iter().enumerate().filter(|(_, m)| **m != 0) {
+                items.push([mask, (b % per_row) | ((b / per_row) << 16), 32 * w as u32, 0]);
+            }
+        }
+        items
+    }
 }
 
 fn work_buffer(device: &wgpu::Device, count: u64) -> wgpu::Buffer {
@@ -933,6 +966,29 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Every (block, light) pair given is in exactly one workgroup, at the block's position, and
+    /// no other: lights past the 32nd in workgroups of their own word.
+    #[test]
+    fn each_block_and_light_is_looked_up_once() {
+        let mut lights = LightsOfBlocks::default();
+        let per_row = 7;
+        let mut given = std::collections::BTreeSet::new();
+        for entry in 0..70u32 {
+            let blocks: Vec<u32> = (0..40).filter(|b| (b * 7 + entry * 3) % 5 < 2).collect();
+            lights.add(entry, &blocks);
+            given.extend(blocks.iter().map(|&b| (b, entry)));
+        }
+        let mut found = std::collections::BTreeSet::new();
+        for [mask, position, first, _] in lights.items(per_row) {
+            assert!(mask != 0 && first % 32 == 0);
+            let b = (position & 0xffff) + (position >> 16) * per_row;
+            for bit in (0..32).filter(|bit| mask & (1 << bit) != 0) {
+                assert!(found.insert((b, first + bit)), "block {b}, light {} twice", first + bit);
+            }
+        }
+        assert_eq!(found, given);
     }
 
     /// Tiles never overlap, stay within their layer, and the layers are as few as the largest

@@ -26,12 +26,13 @@ struct Batch {
     entries: array<Entry>,
 };
 
-// The workgroups: each an 8 × 8 block of one light's pixels (x: the entry; y: the block's
-// position in blocks, x | y << 16). The others keep the technique's visibility.
+// The workgroups: each an 8 × 8 block and up to 32 lights that look it up (x: a bit per entry,
+// from entry z; y: the block's position in blocks, x | y << 16). Each pixel's surface is read once
+// for all its lights. Pixels of no workgroup keep the technique's visibility.
 struct Work {
     // x: the workgroups.
     count: vec4<u32>,
-    blocks: array<vec2<u32>>,
+    blocks: array<vec4<u32>>,
 };
 
 // With `DRAGGED` defined, the second lookup of a frame: over the pixels that may show a dragged
@@ -124,23 +125,28 @@ fn main(
         return;
     }
     let w = work.blocks[item];
-    let e = batch.entries[w.x];
     let pixel = vec2<u32>(w.y & 0xffffu, w.y >> 16u) * 8u + local.xy;
     if (f32(pixel.x) >= camera.size.x || f32(pixel.y) >= camera.size.y) {
         return;
     }
     let depth = read_depth(pixel);
-    let background = is_background(camera, depth);
+    // The background keeps the technique's visibility, already copied into `out_layers`.
+    if (is_background(camera, depth)) {
+        return;
+    }
 // #ifdef DRAGGED
-    if (background || !shows_temporary(pixel, depth)) {
+    if (!shows_temporary(pixel, depth)) {
         return;
     }
 // #endif
-    let layer = i32(e.flags.y);
-    var v = textureLoad(raw_layers, vec2<i32>(pixel), layer, 0).r;
-    if (!background) {
-        let p = world_from_depth(camera, pixel, depth);
-        let n = normalize(textureLoad(normal_texture, vec2<i32>(pixel), 0).xyz);
+    let p = world_from_depth(camera, pixel, depth);
+    let n = normalize(textureLoad(normal_texture, vec2<i32>(pixel), 0).xyz);
+    var lights_left = w.x;
+    while (lights_left != 0u) {
+        let e = batch.entries[w.z + countTrailingZeros(lights_left)];
+        lights_left = lights_left & (lights_left - 1u);
+        let layer = i32(e.flags.y);
+        var v = textureLoad(raw_layers, vec2<i32>(pixel), layer, 0).r;
         let light = lights[e.flags.w];
         if (light_relevant(light, p, n)) {
             let l = light_vector(light, p).xyz;
@@ -156,6 +162,6 @@ fn main(
                 v = v * atlas_visibility(k, p, n, l);
             }
         }
+        textureStore(out_layers, vec2<i32>(pixel), layer, vec4<f32>(v));
     }
-    textureStore(out_layers, vec2<i32>(pixel), layer, vec4<f32>(v));
 }

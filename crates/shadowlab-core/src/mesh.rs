@@ -7,6 +7,9 @@ use crate::bounds::Aabb;
 
 /// An indexed triangle mesh in its own (object) space.
 ///
+/// Triangles above which [`Mesh::part_bounds`] keeps one box (a sort per axis and level).
+pub const PART_BOUNDS_MAX_TRIANGLES: usize = 4096;
+
 /// Triangles are counter-clockwise when seen from the front (the side their normals point to), as in
 /// glTF and OBJ. `normals` has one entry per position; `uvs`, when present, too.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -42,6 +45,73 @@ impl Mesh {
             }
         }
         b
+    }
+
+    /// Boxes that together hold every triangle: the triangles split in two, `depth` times, where
+    /// the boxes' surfaces weighed by their triangles add up least (the surface area heuristic of
+    /// bounding volume hierarchies; each axis tried, the triangles in the order
+    /// of their centroids), so at most 2^depth boxes. A mesh of several parts, such as three walls
+    /// in one mesh, gets a box around each instead of one around the room. Meshes of more than
+    /// [`PART_BOUNDS_MAX_TRIANGLES`] triangles (scanned models, compact anyway) keep one box.
+    /// Triangles with a vertex out of range are left out, as [`Mesh::bounds`] leaves the vertex out.
+    pub fn part_bounds(&self, depth: u32) -> Vec<Aabb> {
+        let valid = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < self.positions.len());
+        let tris: Vec<usize> = (0..self.triangles.len()).filter(|&t| valid(&self.triangles[t])).collect();
+        if tris.len() > PART_BOUNDS_MAX_TRIANGLES {
+            return vec![self.bounds()];
+        }
+        let mut parts = Vec::new();
+        self.split_parts(tris, depth, &mut parts);
+        parts
+    }
+
+    fn split_parts(&self, mut tris: Vec<usize>, depth: u32, parts: &mut Vec<Aabb>) {
+        let boxed = |t: usize| {
+            let mut b = Aabb::EMPTY;
+            for p in self.corners(t) {
+                b.grow(p);
+            }
+            b
+        };
+        // Surface area, not volume: a flat box (the tops of three walls) has no volume but spans
+        // the room.
+        let area = |b: &Aabb| {
+            let e = b.extent();
+            e.x * e.y + e.y * e.z + e.z * e.x
+        };
+        let whole = tris.iter().fold(Aabb::EMPTY, |b, &t| b.union(&boxed(t)));
+        if tris.is_empty() {
+            return;
+        }
+        if depth == 0 || tris.len() < 2 {
+            parts.push(whole);
+            return;
+        }
+        // The best cut: (cost, axis, triangles before it).
+        let mut best = (f32::INFINITY, 0, tris.len() / 2);
+        for axis in 0..3 {
+            let centroid = |t: usize| (self.corners(t).iter().copied().sum::<Vec3>() / 3.0)[axis];
+            tris.sort_by(|&a, &b| centroid(a).total_cmp(&centroid(b)));
+            // Suffix boxes, then a sweep of prefix boxes.
+            let mut after = vec![Aabb::EMPTY; tris.len() + 1];
+            for i in (0..tris.len()).rev() {
+                after[i] = after[i + 1].union(&boxed(tris[i]));
+            }
+            let mut before = Aabb::EMPTY;
+            for i in 1..tris.len() {
+                before = before.union(&boxed(tris[i - 1]));
+                let v = area(&before) * i as f32 + area(&after[i]) * (tris.len() - i) as f32;
+                if v < best.0 {
+                    best = (v, axis, i);
+                }
+            }
+        }
+        let (_, axis, cut) = best;
+        let centroid = |t: usize| (self.corners(t).iter().copied().sum::<Vec3>() / 3.0)[axis];
+        tris.sort_by(|&a, &b| centroid(a).total_cmp(&centroid(b)));
+        let rest = tris.split_off(cut);
+        self.split_parts(tris, depth - 1, parts);
+        self.split_parts(rest, depth - 1, parts);
     }
 
     /// The triangle's three corner positions.
@@ -252,6 +322,45 @@ mod tests {
 
     fn quad() -> (Vec<Vec3>, Vec<[u32; 3]>) {
         (vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 0.0, -1.0)], vec![[0, 1, 2], [0, 2, 3]])
+    }
+
+    /// Every triangle lies in one of the boxes, the boxes lie in the mesh's bounds, there are at
+    /// most 2^depth of them, and three separate walls get three thin boxes, not the room.
+    #[test]
+    fn part_bounds_hold_every_triangle() {
+        use crate::primitives::cuboid_between;
+        let walls = [
+            cuboid_between(Vec3::new(-2.6, 0.0, -2.1), Vec3::new(-2.5, 2.6, 2.1)),
+            cuboid_between(Vec3::new(-2.5, 0.0, -2.1), Vec3::new(2.5, 2.6, -2.0)),
+            cuboid_between(Vec3::new(-2.5, 0.0, 2.0), Vec3::new(2.5, 2.6, 2.1)),
+        ];
+        let (mut positions, mut triangles) = (Vec::new(), Vec::new());
+        for w in &walls {
+            let base = positions.len() as u32;
+            positions.extend(&w.positions);
+            triangles.extend(w.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
+        let mesh = Mesh::with_computed_normals("walls", &positions, &triangles, 30.0);
+        let whole = mesh.bounds();
+        for depth in 0..5 {
+            let parts = mesh.part_bounds(depth);
+            assert!(!parts.is_empty() && parts.len() <= 1 << depth, "depth {depth}: {} parts", parts.len());
+            for b in &parts {
+                assert!(whole.contains(b.min) && whole.contains(b.max), "depth {depth}: {b:?} outside {whole:?}");
+            }
+            for t in 0..mesh.triangle_count() {
+                let inside = |b: &Aabb| mesh.corners(t).iter().all(|&p| b.contains(p));
+                assert!(parts.iter().any(inside), "depth {depth}: triangle {t} in no box");
+            }
+            let volume = |b: &Aabb| b.extent().x * b.extent().y * b.extent().z;
+            let total: f32 = parts.iter().map(volume).sum();
+            if depth >= 3 {
+                // The walls' own volume is 0.1 × 2.6 × (4.2 + 5 + 5) m³ = 3.7 m³, the room's box
+                // 56.8 m³: the boxes must stay near the walls.
+                assert!(total < 0.25 * volume(&whole), "depth {depth}: {total} m³ of boxes");
+            }
+        }
+        assert!(Mesh::with_computed_normals("none", &[], &[], 30.0).part_bounds(3).is_empty());
     }
 
     #[test]

@@ -4,6 +4,9 @@
 
 use shadowlab_core::{Aabb, Instance, Light, LightId, Mobility, Scene};
 
+/// Splits of a mesh into parts for [`LiveScene::instance_parts`]: at most 2³ boxes.
+const MESH_PART_DEPTH: u32 = 3;
+
 use super::edits::{Edit, EditError, EditKind, InstanceId, LightChange, check_transform};
 
 /// Per instance: its stable id, the version of its transform and its world bounds.
@@ -55,6 +58,9 @@ pub struct LiveScene {
     /// Bounds of every instance but temporary ones: what light views are fitted to.
     fit_bounds: Aabb,
     fit_caster_bounds: Aabb,
+    /// Per mesh, boxes around its parts in its own space ([`Mesh::part_bounds`]; meshes never
+    /// change after the scene is taken over).
+    mesh_parts: Vec<Vec<Aabb>>,
 }
 
 impl LiveScene {
@@ -66,6 +72,7 @@ impl LiveScene {
             counter
         };
         let mesh_bounds: Vec<Aabb> = scene.meshes.iter().map(|m| m.bounds()).collect();
+        let mesh_parts: Vec<Vec<Aabb>> = scene.meshes.iter().map(|m| m.part_bounds(MESH_PART_DEPTH)).collect();
         let instances = scene
             .instances
             .iter()
@@ -92,6 +99,7 @@ impl LiveScene {
             permanent_epoch: 0,
             fit_bounds: Aabb::EMPTY,
             fit_caster_bounds: Aabb::EMPTY,
+            mesh_parts,
         };
         live.refit();
         live
@@ -177,6 +185,15 @@ impl LiveScene {
     /// an object never refits a light.
     pub fn fit_bounds(&self) -> Aabb {
         self.fit_bounds
+    }
+
+    /// World boxes around the parts of the `index`-th instance (in the scene's order): together
+    /// they hold all its triangles, and they are often much smaller than its bounds (three walls in
+    /// one mesh get three slabs, not the room).
+    pub fn instance_parts(&self, index: usize) -> impl Iterator<Item = Aabb> + '_ {
+        let inst = self.scene.instances.get(index);
+        let parts = inst.and_then(|i| self.mesh_parts.get(i.mesh.index())).map_or(&[][..], Vec::as_slice);
+        parts.iter().map(move |b| b.transformed(&inst.expect("parts come with an instance").transform))
     }
 
     /// [`LiveScene::fit_bounds`] of the shadow casters.

@@ -33,6 +33,10 @@ pub fn map_size(width: u32, height: u32) -> u32 {
     (2 * width.max(height)).next_power_of_two().clamp(256, 1024)
 }
 
+/// Instances up to which the dragged objects' shadow silhouettes are cut by each instance's bounds
+/// (a clipped body each, per view and light, every drag step), not by the whole scene's box.
+const MAX_RECEIVER_BOXES: usize = 256;
+
 /// The bias of `hard`'s defaults (texels along the normal; slope-scaled raster bias).
 const NORMAL_OFFSET: f32 = 0.3;
 const SLOPE_BIAS: f32 = 1.5;
@@ -294,11 +298,34 @@ impl TemporaryShadows {
         if let Some(rect) = objects {
             blocks.add_rect(rect);
         }
-        for view in &views {
-            match shadow_silhouette(&ctx.surface.camera, view, size, &padded(&receivers)) {
-                Silhouette::Nothing => {}
-                Silhouette::Anywhere => blocks.add_rect(whole_frame),
-                Silhouette::Hull(points) => blocks.add_hull(&points),
+        // Every surface lies in one of its instance's part boxes, so a shadow falls only where
+        // the body through the object meets one of them: the body clipped by each box is a slab
+        // where it crosses the floor or a wall, where the whole scene's box also held the air
+        // before them. Past `MAX_RECEIVER_BOXES` boxes, the scene's box (each costs a clipping
+        // per view and light, every drag step).
+        let instances = ctx.live.instances();
+        let mut boxes: Vec<Aabb> = (0..instances.len())
+            .flat_map(|i| ctx.live.instance_parts(i))
+            .filter(|b| !b.is_empty())
+            .map(|b| padded(&b))
+            .collect();
+        if boxes.len() > MAX_RECEIVER_BOXES {
+            boxes = vec![padded(&receivers)];
+        }
+        'views: for view in &views {
+            // Boxes beyond the body through the whole scene's box meet nothing.
+            let reach =
+                ConvexBody::from_aabb(&padded(&receivers)).clip_to_view(&view.view_projection, 4.0 / size as f32, 1e-4);
+            let reach = Aabb::from_points(reach.points());
+            for b in boxes.iter().filter(|b| b.min.cmple(reach.max).all() && reach.min.cmple(b.max).all()) {
+                match shadow_silhouette(&ctx.surface.camera, view, size, b) {
+                    Silhouette::Nothing => {}
+                    Silhouette::Anywhere => {
+                        blocks.add_rect(whole_frame);
+                        break 'views;
+                    }
+                    Silhouette::Hull(points) => blocks.add_hull(&points),
+                }
             }
         }
         let rect = blocks.bounds();

@@ -18,7 +18,7 @@ use shadowlab_core::{Aabb, LightId, Mobility};
 use super::edits::InstanceId;
 use super::scene::LiveScene;
 use crate::context::{RegionUniform, Shared, UNFILTERED, storage_entry, texture_entry};
-use crate::frame::{CameraUniform, Footprint, LightUniform, SurfaceInputs, VISIBILITY_FORMAT, VisibilityLayer};
+use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VISIBILITY_FORMAT, VisibilityLayer};
 use crate::gbuffer::GBuffer;
 use crate::gpu_scene::GpuScene;
 use crate::shadowmap::{BiasUniform, FaceMode, Raster, ShadowMapArray, lookup_group, lookup_layout};
@@ -162,8 +162,8 @@ struct Pending {
     /// bounds.
     blocks: Vec<u32>,
     rect: [u32; 4],
-    /// The pixels that may show a dragged object (within `rect`).
-    objects: Option<[u32; 4]>,
+    /// The blocks that may show a dragged object (among `blocks`).
+    objects: Option<Vec<u32>>,
     /// The temporary objects' views, and the whole scene's.
     views: Vec<ShadowView>,
     whole: Vec<ShadowView>,
@@ -275,29 +275,29 @@ impl TemporaryShadows {
         let size = map_size(ctx.surface.width, ctx.surface.height);
         let mut views: Vec<ShadowView> = Vec::new();
         let mut receivers = ctx.live.fit_bounds();
-        // The pixels that show a dragged object (they take the permanent casters' shadow), then
+        // The pixels that show a dragged object (they take the permanent casters' shadow): the
+        // silhouettes of its parts' boxes (a chair's seat, back and legs, not its box); then
         // those its shadow may fall on.
-        let mut footprint = Footprint::Nothing;
-        for (inst, state) in ctx.live.scene().instances.iter().zip(ctx.live.instances()) {
+        let whole_frame = [0, 0, ctx.surface.width, ctx.surface.height];
+        let mut objects = Blocks::new(ctx.surface.width, ctx.surface.height);
+        for (i, (inst, state)) in ctx.live.scene().instances.iter().zip(ctx.live.instances()).enumerate() {
             if inst.mobility == Mobility::Temporary {
                 receivers = receivers.union(&state.bounds);
-                footprint = footprint.union(ctx.surface.camera.footprint(&padded(&state.bounds)));
+                for part in ctx.live.instance_parts(i).filter(|b| !b.is_empty()) {
+                    match ctx.surface.camera.pixels_of_body(&ConvexBody::from_aabb(&padded(&part))) {
+                        None => objects.add_rect(whole_frame),
+                        Some(points) if points.is_empty() => {}
+                        Some(points) => objects.add_hull(&points),
+                    }
+                }
                 if inst.casts_shadows {
                     views.extend(light_frusta(ctx.light, &padded(&state.bounds), size).views);
                 }
             }
         }
-        let whole_frame = [0, 0, ctx.surface.width, ctx.surface.height];
-        let objects = match footprint {
-            Footprint::Nothing => None,
-            Footprint::Rect(rect) => Some(rect),
-            Footprint::Whole => Some(whole_frame),
-        };
-        let objects = objects.filter(|r| r[2] > 0 && r[3] > 0);
+        let objects = objects.bounds().map(|_| objects.indices());
         let mut blocks = Blocks::new(ctx.surface.width, ctx.surface.height);
-        if let Some(rect) = objects {
-            blocks.add_rect(rect);
-        }
+        blocks.take(objects.iter().flatten().copied());
         // Every surface lies in one of its instance's part boxes, so a shadow falls only where
         // the body through the object meets one of them: the body clipped by each box is a slab
         // where it crosses the floor or a wall, where the whole scene's box also held the air
@@ -419,10 +419,8 @@ impl TemporaryShadows {
             let e = i as u32;
             entries.push(Entry { rect: p.rect, views, flags: [cube, p.layer, 0, e] });
             work.add(e, &p.blocks);
-            if let Some(rect) = p.objects {
-                let mut objects = Blocks::new(ctx.surface.width, ctx.surface.height);
-                objects.add_rect(rect);
-                dragged.add(e, &objects.indices());
+            if let Some(objects) = &p.objects {
+                dragged.add(e, objects);
             }
             next += n;
         }
@@ -772,6 +770,15 @@ impl Blocks {
     }
 
     /// Every block that holds a pixel of `rect` (x, y, width, height).
+    /// Takes the blocks of these indices ([`Blocks::indices`] of an output of the same size).
+    fn take(&mut self, indices: impl IntoIterator<Item = u32>) {
+        for i in indices {
+            if let Some(t) = self.taken.get_mut(i as usize) {
+                *t = true;
+            }
+        }
+    }
+
     fn add_rect(&mut self, rect: [u32; 4]) {
         let [x, y, w, h] = rect;
         let (x1, y1) = ((x + w).min(self.width), (y + h).min(self.height));
@@ -916,6 +923,7 @@ fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::Footprint;
     use glam::Vec3;
     use shadowlab_core::{Light, LightKind, View};
 
@@ -1016,6 +1024,53 @@ mod tests {
             }
         }
         assert_eq!(found, given);
+    }
+
+    /// The blocks taken for a box's silhouette (`pixels_of_body`, as for a dragged object's
+    /// parts) hold every pixel a point inside the box projects to: random boxes in front of the
+    /// eye, beside it, straddling its plane and behind it.
+    #[test]
+    fn a_box_silhouette_holds_every_pixel_its_points_reach() {
+        let c = camera();
+        let (width, height) = (200u32, 200u32);
+        let mut seed = 11u64;
+        let mut random = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let to_clip = c.inv_view_proj_rel.inverse();
+        let eye = c.position.truncate();
+        let (mut seen, mut empty) = (0, 0);
+        for case in 0..400 {
+            // Centres from 6 m behind the eye (z = 12) to 18 m ahead of it.
+            let centre = Vec3::new(random() * 16.0 - 8.0, random() * 8.0 - 2.0, random() * 24.0 - 6.0);
+            let half = Vec3::new(random(), random(), random()) * 2.0 + Vec3::splat(0.01);
+            let b = Aabb::new(centre - half, centre + half);
+            let mut blocks = Blocks::new(width, height);
+            match c.pixels_of_body(&ConvexBody::from_aabb(&b)) {
+                None => blocks.add_rect([0, 0, width, height]),
+                Some(points) if points.is_empty() => empty += 1,
+                Some(points) => blocks.add_hull(&points),
+            }
+            let taken = blocks.indices();
+            for _ in 0..200 {
+                let p = b.min + (b.max - b.min) * Vec3::new(random(), random(), random());
+                let clip = to_clip * (p - eye).extend(1.0);
+                if clip.w <= 0.01 {
+                    continue;
+                }
+                let ndc = Vec2::new(clip.x, clip.y) / clip.w;
+                let pixel = Vec2::new((ndc.x + 1.0) * 0.5 * width as f32, (1.0 - ndc.y) * 0.5 * height as f32);
+                if pixel.x < 0.0 || pixel.y < 0.0 || pixel.x >= width as f32 || pixel.y >= height as f32 {
+                    continue;
+                }
+                seen += 1;
+                let block = (pixel.x as u32 / GROUP) + (pixel.y as u32 / GROUP) * width.div_ceil(GROUP);
+                assert!(taken.contains(&block), "case {case}: {p} at pixel {pixel} is in no block of {b:?}");
+            }
+        }
+        // The test says something: many points on screen, and some boxes wholly out of sight.
+        assert!(seen > 10_000 && empty > 20, "{seen} points seen, {empty} boxes out of sight");
     }
 
     /// Tiles never overlap, stay within their layer, and the layers are as few as the largest

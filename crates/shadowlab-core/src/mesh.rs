@@ -5,11 +5,11 @@ use rustc_hash::FxHashMap;
 
 use crate::bounds::Aabb;
 
-/// An indexed triangle mesh in its own (object) space.
-///
 /// Triangles above which [`Mesh::part_bounds`] keeps one box (a sort per axis and level).
 pub const PART_BOUNDS_MAX_TRIANGLES: usize = 4096;
 
+/// An indexed triangle mesh in its own (object) space.
+///
 /// Triangles are counter-clockwise when seen from the front (the side their normals point to), as in
 /// glTF and OBJ. `normals` has one entry per position; `uvs`, when present, too.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -79,12 +79,11 @@ impl Mesh {
             let e = b.extent();
             e.x * e.y + e.y * e.z + e.z * e.x
         };
-        let whole = tris.iter().fold(Aabb::EMPTY, |b, &t| b.union(&boxed(t)));
         if tris.is_empty() {
             return;
         }
         if depth == 0 || tris.len() < 2 {
-            parts.push(whole);
+            parts.push(tris.iter().fold(Aabb::EMPTY, |b, &t| b.union(&boxed(t))));
             return;
         }
         // The best cut: (cost, axis, triangles before it).

@@ -4,10 +4,10 @@
 
 use shadowlab_core::{Aabb, Instance, Light, LightId, Mobility, Scene};
 
+use super::edits::{Edit, EditError, EditKind, InstanceId, LightChange, check_transform};
+
 /// Splits of a mesh into parts for [`LiveScene::instance_parts`]: at most 2³ boxes.
 const MESH_PART_DEPTH: u32 = 3;
-
-use super::edits::{Edit, EditError, EditKind, InstanceId, LightChange, check_transform};
 
 /// Per instance: its stable id, the version of its transform and its world bounds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -191,9 +191,10 @@ impl LiveScene {
     /// they hold all its triangles, and they are often much smaller than its bounds (three walls in
     /// one mesh get three slabs, not the room).
     pub fn instance_parts(&self, index: usize) -> impl Iterator<Item = Aabb> + '_ {
-        let inst = self.scene.instances.get(index);
-        let parts = inst.and_then(|i| self.mesh_parts.get(i.mesh.index())).map_or(&[][..], Vec::as_slice);
-        parts.iter().map(move |b| b.transformed(&inst.expect("parts come with an instance").transform))
+        self.scene.instances.get(index).into_iter().flat_map(move |inst| {
+            let parts = self.mesh_parts.get(inst.mesh.index()).map_or(&[][..], Vec::as_slice);
+            parts.iter().map(move |b| b.transformed(&inst.transform))
+        })
     }
 
     /// [`LiveScene::fit_bounds`] of the shadow casters.

@@ -33,8 +33,9 @@ pub fn map_size(width: u32, height: u32) -> u32 {
     (2 * width.max(height)).next_power_of_two().clamp(256, 1024)
 }
 
-/// Instances up to which the dragged objects' shadow silhouettes are cut by each instance's bounds
-/// (a clipped body each, per view and light, every drag step), not by the whole scene's box.
+/// Part boxes (`LiveScene::instance_parts`, all instances together) up to which the dragged
+/// objects' shadow silhouettes are cut by each box (a clipped body each, per view and light,
+/// every drag step), not by the whole scene's box.
 const MAX_RECEIVER_BOXES: usize = 256;
 
 /// The bias of `hard`'s defaults (texels along the normal; slope-scaled raster bias).
@@ -314,9 +315,7 @@ impl TemporaryShadows {
         }
         'views: for view in &views {
             // Boxes beyond the body through the whole scene's box meet nothing.
-            let reach =
-                ConvexBody::from_aabb(&padded(&receivers)).clip_to_view(&view.view_projection, 4.0 / size as f32, 1e-4);
-            let reach = Aabb::from_points(reach.points());
+            let reach = Aabb::from_points(view_body(view, size, &padded(&receivers)).points());
             for b in boxes.iter().filter(|b| b.min.cmple(reach.max).all() && reach.min.cmple(b.max).all()) {
                 match shadow_silhouette(&ctx.surface.camera, view, size, b) {
                     Silhouette::Nothing => {}
@@ -739,8 +738,7 @@ enum Silhouette {
 /// 1.93 → 1.83 and 1.81, one run each alternated). The silhouette, not its bounding rectangle,
 /// is what [`Blocks`] covers: a shadow's wedge across the floor fills a fraction of its box.
 fn shadow_silhouette(camera: &CameraUniform, view: &ShadowView, size: u32, receivers: &Aabb) -> Silhouette {
-    // Two texels wider than the window; the near plane a hair beyond for round-off (reversed Z).
-    let body = ConvexBody::from_aabb(receivers).clip_to_view(&view.view_projection, 4.0 / size as f32, 1e-4);
+    let body = view_body(view, size, receivers);
     if body.is_empty() {
         return Silhouette::Nothing;
     }
@@ -749,6 +747,12 @@ fn shadow_silhouette(camera: &CameraUniform, view: &ShadowView, size: u32, recei
         Some(points) if points.is_empty() => Silhouette::Nothing,
         Some(points) => Silhouette::Hull(points),
     }
+}
+
+/// The box `b` cut by the side planes of a temporary object's map `view` (of `size` texels), two
+/// texels wider than its window, and by its near plane a hair beyond for round-off (reversed Z).
+fn view_body(view: &ShadowView, size: u32, b: &Aabb) -> ConvexBody {
+    ConvexBody::from_aabb(b).clip_to_view(&view.view_projection, 4.0 / size as f32, 1e-4)
 }
 
 /// The blocks of `GROUP`² pixels of an output a light's lookup covers (a workgroup each).
@@ -769,7 +773,6 @@ impl Blocks {
         Self { width, height, per_row, taken: vec![false; (per_row * height.div_ceil(GROUP)) as usize] }
     }
 
-    /// Every block that holds a pixel of `rect` (x, y, width, height).
     /// Takes the blocks of these indices ([`Blocks::indices`] of an output of the same size).
     fn take(&mut self, indices: impl IntoIterator<Item = u32>) {
         for i in indices {
@@ -779,6 +782,7 @@ impl Blocks {
         }
     }
 
+    /// Every block that holds a pixel of `rect` (x, y, width, height).
     fn add_rect(&mut self, rect: [u32; 4]) {
         let [x, y, w, h] = rect;
         let (x1, y1) = ((x + w).min(self.width), (y + h).min(self.height));

@@ -1074,6 +1074,8 @@ mod tests {
             }
         }
         // The test says something: many points on screen, and some boxes wholly out of sight.
+        // Measured: 37 631 points seen, 163 boxes out of sight; bounds about a quarter and an
+        // eighth of those.
         assert!(seen > 10_000 && empty > 20, "{seen} points seen, {empty} boxes out of sight");
     }
 

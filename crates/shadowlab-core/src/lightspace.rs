@@ -159,6 +159,27 @@ pub fn cube_face(d: Vec3) -> usize {
     }
 }
 
+/// The cube faces [`cube_face`] gives to some point of the box `b` seen from `eye` (indexed as
+/// [`CUBE_FACES`]): a face's map is read only for points it holds, so a box's points need no
+/// other. A face holds a direction `d` when its axis component, with the face's sign, is at
+/// least both others' magnitudes; over a box each component ranges independently, so the face
+/// holds some point when the largest signed component reaches the least magnitudes of the
+/// other two. Ties count for every face they touch (conservative). An empty box meets none.
+pub fn cube_faces_meeting(eye: Vec3, b: &Aabb) -> [bool; 6] {
+    let (lo, hi) = (b.min - eye, b.max - eye);
+    if !(lo.cmple(hi).all()) {
+        return [false; 6];
+    }
+    let least = |a: usize| if lo[a] <= 0.0 && hi[a] >= 0.0 { 0.0 } else { lo[a].abs().min(hi[a].abs()) };
+    let mut faces = [false; 6];
+    for axis in 0..3 {
+        let others = (0..3).filter(|&o| o != axis).map(least).fold(0.0f32, f32::max);
+        faces[2 * axis] = hi[axis] >= others;
+        faces[2 * axis + 1] = -lo[axis] >= others;
+    }
+    faces
+}
+
 /// How a light's shadow map covers the scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LightFrusta {
@@ -434,6 +455,52 @@ pub fn frame(axis: Vec3) -> (Vec3, Vec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every point of 500 random boxes (a grid of 9³ over each, corners and the light's own
+    /// coordinate planes among them) goes to a face the box is said to meet; a box within one
+    /// face's pyramid meets that face alone, and the faces claimed for a box straddling the light
+    /// are all six. Fails with a face's own component taken at the wrong end of the box, or with
+    /// the other axes' largest magnitudes in place of their least.
+    #[test]
+    fn cube_faces_meeting_holds_every_face_a_boxs_points_take() {
+        let mut rng = crate::sampling::Rng::new(7);
+        let mut f = || rng.next_f32() * 4.0 - 2.0;
+        for _ in 0..500 {
+            let eye = Vec3::new(f(), f(), f());
+            let (a, b) = (Vec3::new(f(), f(), f()), Vec3::new(f(), f(), f()));
+            let bx = Aabb::new(a.min(b), a.max(b));
+            let faces = cube_faces_meeting(eye, &bx);
+            let mut taken = [false; 6];
+            for i in 0..9 {
+                for j in 0..9 {
+                    for k in 0..9 {
+                        let t = Vec3::new(i as f32, j as f32, k as f32) / 8.0;
+                        let mut p = bx.min + (bx.max - bx.min) * t;
+                        // The light's own coordinates where the box spans them (the point nearest
+                        // an axis).
+                        for c in 0..3 {
+                            if i + j + k == 0 && bx.min[c] <= eye[c] && eye[c] <= bx.max[c] {
+                                p[c] = eye[c];
+                            }
+                        }
+                        taken[cube_face(p - eye)] = true;
+                    }
+                }
+            }
+            for face in 0..6 {
+                assert!(!taken[face] || faces[face], "face {face} taken by a point of {bx:?} from {eye:?}: {faces:?}");
+            }
+        }
+        // Wholly in +X's pyramid, away from its edges.
+        let one = Aabb::new(Vec3::new(2.0, -0.5, -0.5), Vec3::new(3.0, 0.5, 0.5));
+        assert_eq!(cube_faces_meeting(Vec3::ZERO, &one), [true, false, false, false, false, false]);
+        // Below the light, reaching towards +Z but not past the diagonal.
+        let below = Aabb::new(Vec3::new(-0.5, -3.0, -0.5), Vec3::new(0.5, -2.0, 1.5));
+        assert_eq!(cube_faces_meeting(Vec3::ZERO, &below), [false, false, false, true, false, false]);
+        let around = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+        assert_eq!(cube_faces_meeting(Vec3::ZERO, &around), [true; 6]);
+        assert_eq!(cube_faces_meeting(Vec3::ZERO, &Aabb::EMPTY), [false; 6]);
+    }
 
     #[test]
     fn a_centred_off_axis_window_is_the_symmetric_perspective() {

@@ -30,6 +30,12 @@ fn first_light_equals_fresh(r: &Renderer) -> bool {
     r.live_visibility().unwrap()[0].1 == r.fresh_visibility().unwrap()[0].1
 }
 
+/// Cache fills a frame made: maps, light-map samples, volumes, light meshes (not the dragged
+/// objects' own views, drawn every step).
+fn fills(w: &shadowlab::Work) -> u32 {
+    w.map_views + w.lightmap_samples + w.volume_objects + w.light_meshes
+}
+
 fn visibility(r: &Renderer) -> Vec<Vec<f32>> {
     r.live_visibility().unwrap().into_iter().map(|(_, v)| v).collect()
 }
@@ -226,15 +232,17 @@ fn frames_that_only_accumulate_out_of_sight_resolve_nothing() {
     r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
     let pick_up = r.render().unwrap().work;
     assert!(pick_up.resolves > 0, "the pick-up resolves the lights over the permanent surface: {pick_up:?}");
+    // The chair's own view from the ceiling lamp (one frustum: it is far from the lamp), and the
+    // lamp's cube faces of the permanent casters that the chair reaches.
+    let mut faces = pick_up.temporary_views - 1;
     let (mut quiet, mut shows) = (0, 0);
     for frame in 1..100 {
         let w = r.render().unwrap().work;
         if light_maps_shown(&r) > 0.0 {
             shows += 1;
             assert_eq!(w.resolves, 1, "frame {frame} shows a rung: the light map's light alone resolves: {w:?}");
-            // The chair's own view from the ceiling lamp (one frustum: it is far from the lamp);
-            // the lamp's six cube faces of the permanent casters are not drawn again (7 views).
-            assert_eq!(w.temporary_views, 1, "frame {frame}: {w:?}");
+            // The chair's view again, and faces drawn for the first time when the frame has room.
+            faces += w.temporary_views - 1;
         } else if w.lightmap_samples > 0 {
             quiet += 1;
             assert_eq!((w.resolves, w.temporary_views), (0, 0), "frame {frame} only accumulates: {w:?}");
@@ -244,6 +252,8 @@ fn frames_that_only_accumulate_out_of_sight_resolve_nothing() {
         }
     }
     assert!(quiet >= 2 && shows >= 1, "{quiet} frames only accumulated, {shows} showed a rung");
+    // Each face is drawn once (each show drew all six again before they were kept).
+    assert!(faces <= 6, "{faces} faces of the whole scene drawn for a six-face cube");
     assert!(first_light_equals_fresh(&r), "the refilled light maps equal a fresh engine's");
 }
 
@@ -284,6 +294,9 @@ fn a_drag_under_a_target_moves_one_light_a_frame() {
             let held = w.held_lights as usize;
             assert_eq!(held, lights - 1 - frame, "frame {frame}: one light a frame: {w:?}");
             assert!(kept >= held && waiting >= held, "frame {frame}: {kept} layers kept, {waiting} not current");
+            // The light's turn is the frame's work: the maps the pick-up made stale (the hard
+            // lights' static maps held the chair) wait for the frames after.
+            assert_eq!(fills(&w), 0, "frame {frame}: a turn and fills in one frame: {w:?}");
             if frame == 0 && interrupt == "camera" {
                 let view = r.scene().view("table").unwrap().clone();
                 r.set_view(&view);
@@ -319,9 +332,90 @@ fn a_drag_under_a_target_moves_one_light_a_frame() {
             let kept = visibility(&r).iter().zip(&during).filter(|(a, b)| a == b).count();
             let held = w.held_lights as usize;
             assert_eq!(held, lights - 1 - frame, "release, frame {frame}: one light a frame: {w:?}");
+            assert_eq!(fills(&w), 0, "release, frame {frame}: a turn and fills in one frame: {w:?}");
             assert!(kept >= held, "release, frame {frame}: {kept} layers kept");
         }
         all_equal_fresh(&mut r, "released");
+    }
+}
+
+/// Lights that join a drag one a frame each add their views of the whole scene (the permanent
+/// casters' shadow on the dragged object) to one array, which grows as they come. Those drawn
+/// before a growth are copied into the larger array, not drawn again; once the object moves,
+/// every light looks them up. The chair south, seen from under the table, takes the shadows of
+/// the table and the other chairs: with the copy left out (the earlier lights' layers of the
+/// new array empty, so lit), 87 and 119 of its pixels differ from a fresh engine for the
+/// ceiling lamp and the sun; with it, none.
+#[test]
+fn views_of_the_whole_scene_survive_the_arrays_growth() {
+    use shadowlab_core::Mobility;
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("under_table").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let hard = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
+    for l in 0..4 {
+        r.set_technique(LightId(l), &hard).unwrap();
+    }
+    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::MapView, 0.1)]), 10.0);
+    r.set_target_ms(Some(16.0));
+    for _ in 0..30 {
+        r.render().unwrap();
+    }
+    let chair = r.shadows.live().find_instance("chair south").unwrap();
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    // One light a frame: 1, 1, 6 and 6 slots, the array growing to 2, 8 and 16 layers.
+    let held: Vec<u32> = (0..4).map(|_| r.render().unwrap().work.held_lights).collect();
+    assert_eq!(held, [3, 2, 1, 0], "one light joined the drag a frame");
+    for _ in 0..8 {
+        r.render().unwrap();
+    }
+    assert!(r.shadows.levels().iter().all(|l| l.2), "every light current: {:?}", r.shadows.levels());
+    let t = r.shadows.live().instance(chair).unwrap().transform;
+    let step = glam::Affine3A::from_translation(Vec3::new(0.05, 0.0, 0.05)) * t;
+    r.apply(Edit::Transform { instance: chair, transform: step }).unwrap();
+    let w = r.render().unwrap().work;
+    assert_eq!(w.resolves, 0, "a drag step resolves no light: {w:?}");
+    let fresh = r.fresh_visibility().unwrap();
+    for ((light, f), (_, v)) in fresh.iter().zip(r.live_visibility().unwrap()) {
+        let differ = f.iter().zip(&v).filter(|(a, b)| a != b).count();
+        assert_eq!(differ, 0, "light {light}: {differ} pixels differ from a fresh engine");
+    }
+}
+
+/// Under a target a point lamp's cube of the whole scene draws, when the lamp joins a drag, only
+/// the faces the dragged object reaches; the others wait for a frame with room (one a frame
+/// here), or for the object to reach them. The chair south is dragged 0.85 m diagonally from
+/// under the table, and every step equals a fresh engine. Drawing only the faces a frame has
+/// room for, reached or not, leaves 87 of the chair's pixels lit under the table's shadow at the
+/// first step.
+#[test]
+fn a_cube_of_the_whole_scene_draws_the_faces_a_dragged_object_reaches() {
+    use shadowlab_core::Mobility;
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("under_table").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let hard = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
+    r.set_technique(LightId(0), &hard).unwrap();
+    // A view costs more than any frame's budget: one unit a frame, the first asked for.
+    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::MapView, 100.0)]), 10.0);
+    r.set_target_ms(Some(16.0));
+    for _ in 0..30 {
+        r.render().unwrap();
+    }
+    let chair = r.shadows.live().find_instance("chair south").unwrap();
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    let w = r.render().unwrap().work;
+    // The atlas's view of the chair, and the cube's faces it reaches (below and one side).
+    assert!(w.resolves == 1 && w.temporary_views < 1 + 6, "the lamp joined with some of its faces: {w:?}");
+    let start = r.shadows.live().instance(chair).unwrap().transform;
+    for step in 1..=12 {
+        let by = Vec3::new(0.05, 0.0, 0.05) * step as f32;
+        r.apply(Edit::Transform { instance: chair, transform: glam::Affine3A::from_translation(by) * start }).unwrap();
+        r.render().unwrap();
+        let fresh = r.fresh_visibility().unwrap();
+        let live = r.live_visibility().unwrap();
+        let differ = fresh[0].1.iter().zip(&live[0].1).filter(|(a, b)| a != b).count();
+        assert_eq!(differ, 0, "step {step}: {differ} pixels differ from a fresh engine");
     }
 }
 

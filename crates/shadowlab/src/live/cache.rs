@@ -34,6 +34,9 @@ pub struct ItemKey {
 pub struct Work {
     /// Map views rendered (static layers, composite layers, uncached views).
     pub map_views: u32,
+    /// Map views shown anew without rendering anything (a composite copy given up for the static
+    /// layer when no dynamic caster reaches the view any more): what the lookups read changed.
+    pub shown_views: u32,
     /// Of those, composite layers (a static copy with the dynamic casters drawn over it).
     pub composite_views: u32,
     /// Emitter samples rendered into receiver light maps.
@@ -66,9 +69,10 @@ pub struct Work {
 
 impl Work {
     /// `(name, count)` of every counter, for reports.
-    pub fn counts(&self) -> [(&'static str, u32); 12] {
+    pub fn counts(&self) -> [(&'static str, u32); 13] {
         [
             ("map_views", self.map_views),
+            ("shown_views", self.shown_views),
             ("composite_views", self.composite_views),
             ("lightmap_samples", self.lightmap_samples),
             ("lightmap_texels", self.lightmap_texels),
@@ -89,10 +93,11 @@ impl Work {
     }
 
     /// The counters of work that renders shadow data (maps, composites, light-map samples, volume
-    /// objects, temporary views, light meshes): when they moved between two points, something was
-    /// filled in between.
-    pub fn fills(&self) -> [u32; 6] {
+    /// objects, temporary views, light meshes) or shows other data (views switched to their static
+    /// layer): when they moved between two points, something was filled in between.
+    pub fn fills(&self) -> [u32; 7] {
         [
+            self.shown_views,
             self.map_views,
             self.composite_views,
             self.lightmap_samples,

@@ -298,7 +298,14 @@ impl MapViews {
                 done = false;
                 continue;
             }
+            let before = ctx.cache.work.map_views;
             let layers = self.render_view(ctx, i, raster, static_sig.clone(), composite_sig.clone(), in_place);
+            if layers.is_some() && ctx.cache.work.map_views == before {
+                // A composite copy given up, nothing rendered: still new data for the lookups, so
+                // the light is resolved again (a technique without a shown version is resolved
+                // when its `prepare` fills anything).
+                ctx.cache.work.shown_views += 1;
+            }
             rendered += units;
             match layers {
                 Some(l) if in_place => {

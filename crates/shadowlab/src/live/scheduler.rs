@@ -192,6 +192,15 @@ impl Budget {
         }
     }
 
+    /// Spends the whole budget on work of the frame's own that is not a unit (its first unit
+    /// included): every unit of some cost asked for afterwards is refused.
+    pub fn exhaust(&mut self) {
+        if !self.is_unlimited() {
+            self.spent_ms = self.spent_ms.max(self.limit_ms);
+            self.units = self.units.max(1);
+        }
+    }
+
     /// Whether the budget allows nothing more of that cost (without counting a refusal).
     pub fn would_refuse(&self, ms: f64) -> bool {
         self.units > 0 && self.spent_ms + ms > self.limit_ms
@@ -343,6 +352,14 @@ mod tests {
         assert!((0..1000).all(|_| u.take(1e6)));
         assert!(Budget::new(f64::NAN).limit_ms() == 0.0 && Budget::new(-5.0).limit_ms() == 0.0);
         assert_eq!(Budget::for_frame(33.0, 20.0, 0.1).limit_ms(), 33.0 - 20.0 - 3.3);
+        // A frame whose own work took the budget (a light's turn in a drag) runs no unit, not
+        // even a first; without a limit it changes nothing.
+        let mut b = Budget::new(10.0);
+        b.exhaust();
+        assert!(!b.take(0.5) && !b.take(25.0) && b.deferred == 2);
+        let mut u = Budget::unlimited();
+        u.exhaust();
+        assert!(u.take(1e6) && u.is_unlimited());
     }
 
     /// A scripted sequence of budgets and costs: units planned never exceed the budget (but the

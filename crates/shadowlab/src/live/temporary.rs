@@ -12,11 +12,12 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec4};
 use shadowlab_core::convex::ConvexBody;
-use shadowlab_core::lightspace::{ShadowView, light_frusta};
+use shadowlab_core::lightspace::{ShadowView, cube_faces_meeting, light_frusta};
 use shadowlab_core::{Aabb, LightId, Mobility};
 
 use super::edits::InstanceId;
 use super::scene::LiveScene;
+use super::scheduler::{UnitKind, count_units};
 use crate::context::{RegionUniform, Shared, UNFILTERED, storage_entry, texture_entry};
 use crate::frame::{CameraUniform, LightUniform, SurfaceInputs, VISIBILITY_FORMAT, VisibilityLayer};
 use crate::gbuffer::GBuffer;
@@ -150,7 +151,10 @@ struct PermanentViews {
     light: LightId,
     first: u32,
     count: u32,
-    drawn: bool,
+    /// The views of slots `first..first + count` (empty until they are set) and which of them
+    /// are drawn.
+    views: Vec<ShadowView>,
+    drawn: Vec<bool>,
 }
 
 /// A light's part of the frame's lookup.
@@ -165,9 +169,11 @@ struct Pending {
     rect: [u32; 4],
     /// The blocks that may show a dragged object (among `blocks`).
     objects: Option<Vec<u32>>,
-    /// The temporary objects' views, and the whole scene's.
+    /// The temporary objects' views, and the whole scene's, with those the dragged objects reach
+    /// now (the others may wait for a frame with time to spare).
     views: Vec<ShadowView>,
     whole: Vec<ShadowView>,
+    needed: Vec<bool>,
     redraw: bool,
 }
 
@@ -270,7 +276,7 @@ impl TemporaryShadows {
         if redraw {
             // Before any early return: maps drawn for the layer's old state must not outlive it.
             if let Some(p) = self.permanent.iter_mut().find(|p| p.light == ctx.light_id) {
-                p.drawn = false;
+                p.views.clear();
             }
         }
         let size = map_size(ctx.surface.width, ctx.surface.height);
@@ -339,7 +345,27 @@ impl TemporaryShadows {
         }
         let Some(rect) = rect else { return };
         // The whole scene's box, which dragging does not change: the permanent views stay put.
-        let whole = light_frusta(ctx.light, &padded(&ctx.live.fit_bounds()), size).views;
+        let whole = light_frusta(ctx.light, &padded(&ctx.live.fit_bounds()), size);
+        // A cube's faces are read only for the points they hold: those of the faces no dragged
+        // object reaches now are drawn when a frame has time to spare (or when one does), not all
+        // in the frame the light joins the drag (a point lamp's six faces of the whole room are
+        // 5 ms at 128 × 96 on a CPU adapter).
+        let needed = match (whole.cube, ctx.light.position()) {
+            (true, Some(eye)) => {
+                let mut needed = vec![false; whole.views.len()];
+                for (i, inst) in ctx.live.scene().instances.iter().enumerate() {
+                    if inst.mobility == Mobility::Temporary {
+                        for part in ctx.live.instance_parts(i).filter(|b| !b.is_empty()) {
+                            let faces = cube_faces_meeting(eye, &padded(&part));
+                            needed.iter_mut().zip(faces).for_each(|(n, f)| *n |= f);
+                        }
+                    }
+                }
+                needed
+            }
+            _ => vec![true; whole.views.len()],
+        };
+        let whole = whole.views;
         self.pending.push(Pending {
             light: ctx.light_id,
             layer: k as u32,
@@ -349,6 +375,7 @@ impl TemporaryShadows {
             objects,
             views,
             whole,
+            needed,
             redraw,
         });
     }
@@ -369,7 +396,13 @@ impl TemporaryShadows {
             if !fits {
                 self.permanent.retain(|v| v.light != p.light);
                 let count = p.whole.len() as u32;
-                self.permanent.push(PermanentViews { light: p.light, first: self.next_slot, count, drawn: false });
+                self.permanent.push(PermanentViews {
+                    light: p.light,
+                    first: self.next_slot,
+                    count,
+                    views: Vec::new(),
+                    drawn: Vec::new(),
+                });
                 self.next_slot += count;
             }
         }
@@ -378,13 +411,29 @@ impl TemporaryShadows {
             // Room for a power of two of views: a 1024² layer is 4 MiB, and a drag that grows
             // from one view to six reallocates once.
             let capacity = needed.max(1).next_power_of_two();
-            let maps = ShadowMapArray::new(shared, size, capacity, capacity);
+            let mut maps = ShadowMapArray::new(shared, size, capacity, capacity);
             ctx.gpu.queue.write_buffer(&self.bias, 0, bytemuck::bytes_of(&bias(size)));
             let group = lookup_group(shared, &maps, &self.bias, false);
-            self.maps = Some((maps, group));
+            // Views drawn at the same size are copied, not drawn again: lights join a drag one a
+            // frame under a target, and each growth redrew every light before (`room`'s fourth
+            // light's frame drew 15 views of the whole scene, 14 ms at 128 × 96, not 6).
+            let old = self.maps.take().filter(|(m, _)| m.size == size);
             for v in &mut self.permanent {
-                v.drawn = false;
+                match &old {
+                    Some((old, _)) if !v.views.is_empty() => {
+                        for (layer, _) in (v.first..).zip(&v.drawn).filter(|(_, drawn)| **drawn) {
+                            ctx.encoder.copy_texture_to_texture(
+                                layer_copy(&old.texture, layer, [0, 0]),
+                                layer_copy(&maps.texture, layer, [0, 0]),
+                                wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
+                            );
+                        }
+                        maps.set_views(&ctx.gpu.queue, v.first, &v.views);
+                    }
+                    _ => v.views.clear(),
+                }
             }
+            self.maps = Some((maps, group));
         }
         let (maps, group) = self.maps.as_mut().expect("made above");
         let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
@@ -401,13 +450,27 @@ impl TemporaryShadows {
         let mut next = 0;
         for (i, p) in self.pending.iter().enumerate() {
             let slots = self.permanent.iter_mut().find(|v| v.light == p.light).expect("given above");
-            if p.redraw || !slots.drawn {
+            if p.redraw || slots.views.is_empty() {
                 maps.set_views(&ctx.gpu.queue, slots.first, &p.whole);
-                for i in slots.first..slots.first + slots.count {
-                    maps.render(ctx, i, i, &raster);
+                slots.views.clone_from(&p.whole);
+                slots.drawn = vec![false; p.whole.len()];
+            }
+            // Views the dragged objects reach are drawn now; the others in a frame whose budget
+            // has room (under a target), or now (without one).
+            let texels = u64::from(size) * u64::from(size);
+            for (j, drawn) in slots.drawn.iter_mut().enumerate() {
+                if *drawn {
+                    continue;
                 }
-                ctx.cache.work.temporary_views += slots.count;
-                slots.drawn = true;
+                if p.needed[j] || ctx.budget.is_unlimited() {
+                    count_units(&mut ctx.cache.units, UnitKind::MapView, texels, 1);
+                } else if !ctx.take_units(UnitKind::MapView, texels, 1) {
+                    continue;
+                }
+                let slot = slots.first + j as u32;
+                maps.render(ctx, slot, slot, &raster);
+                ctx.cache.work.temporary_views += 1;
+                *drawn = true;
             }
             let n = p.views.len() as u32;
             let layers: Vec<u32> = (next..next + n).map(|t| atlas.place(t).0).collect();

@@ -20,7 +20,7 @@ use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
 use crate::live::cache::MAP_TEXEL_BYTES;
 use crate::live::scheduler::{Adaptation, Budget, CostModel, Step, UnitCounts, screen_share};
-use crate::live::temporary::{PermanentSurface, TemporaryShadows};
+use crate::live::temporary::{PermanentSurface, TemporaryShadows, map_size, pick_up_footprint};
 use crate::live::validity::screen_signature;
 use crate::live::{Applied, Edit, EditError, EditKind, InstanceState, LiveScene, ShadowCache, Signature, Work};
 use crate::registry::TechniqueSpec;
@@ -766,9 +766,34 @@ impl Shadows {
             let refilled = shown.is_some_and(|r| version.is_none() && rebuilt.contains(&(k, r)));
             let key =
                 (screen_signature(&self.live, s.light, shadowed.generation()), shown.unwrap_or(usize::MAX), version);
-            let per_pixel = match shown {
-                Some(r) => s.rungs[r].technique.resolves_per_pixel(),
-                None => s.unshadowed.resolves_per_pixel(),
+            let (per_pixel, local) = match shown {
+                Some(r) => (s.rungs[r].technique.resolves_per_pixel(), s.rungs[r].technique.resolves_locally()),
+                None => (s.unshadowed.resolves_per_pixel(), s.unshadowed.resolves_locally()),
+            };
+            // A pick-up (the light's turn, or every light at once without a target): when the
+            // light's layer was resolved over the whole surface from this camera and nothing else
+            // changed since (the emitter, the rung and what it shows, every other instance), only
+            // the pixels the picked-up objects covered or shadowed change, for a technique that
+            // resolves locally: its layer is copied and those are resolved again.
+            let picked_up = match &s.resolved {
+                Some(r)
+                    if self.cache.enabled()
+                        && casting
+                        && !r.casting
+                        && !refilled
+                        && per_pixel
+                        && local
+                        && (r.key.0.emitter, r.key.1, r.key.2) == (key.0.emitter, key.1, key.2)
+                        && bytemuck::bytes_of(&r.camera) == bytemuck::bytes_of(&surface.camera) =>
+                {
+                    self.live.picked_up_since(r.key.0.object).map(|boxes| {
+                        let scene =
+                            self.live.instances().iter().fold(shadowlab_core::Aabb::EMPTY, |a, i| a.union(&i.bounds));
+                        let size = map_size(surface.width, surface.height);
+                        pick_up_footprint(&surface.camera, light, &boxes, &scene, size)
+                    })
+                }
+                _ => None,
             };
             // Only dragged objects moved since the layer was resolved: over the permanent surface
             // every pixel holds (they cast), or every pixel but their footprints (the validity
@@ -793,8 +818,12 @@ impl Shadows {
                     };
                     (redo, r.temporaries != temporaries)
                 }
-                _ => (Redo::Whole, true),
+                _ => match picked_up {
+                    Some(Footprint::Rect(rect)) => (Redo::Region(rect), true),
+                    _ => (Redo::Whole, true),
+                },
             };
+            let seed = picked_up.is_some() && matches!(redo, Redo::Region(_));
             if redo == Redo::Nothing && !(casting && moved) {
                 continue;
             }
@@ -816,7 +845,6 @@ impl Shadows {
             let region = match redo {
                 Redo::Region(rect) => {
                     gpu.queue.write_buffer(&s.region_buffer, 0, bytemuck::bytes_of(&RegionUniform { rect }));
-                    self.cache.work.region_resolves += 1;
                     Some(ResolveRegion { rect, buffer: &s.region_buffer })
                 }
                 _ => None,
@@ -847,14 +875,20 @@ impl Shadows {
             if casting {
                 // The technique's own layer is kept apart (dragged objects in none of its data);
                 // the dragged objects' shadows are multiplied in each time they move.
+                if seed {
+                    self.temporary.seed_raw(ctx.encoder, k, &s.layer);
+                }
                 if redo != Redo::Nothing {
                     technique.resolve(&mut ctx, self.temporary.raw_layer(k));
                 }
+                // (A technique may have given the region up and resolved every pixel.)
+                ctx.cache.work.region_resolves += u32::from(ctx.region.is_some());
                 ctx.region = None;
                 ctx.surface = surface;
                 self.temporary.add(&mut ctx, k, &s.layer, !same_scene);
             } else {
                 technique.resolve(&mut ctx, &s.layer);
+                ctx.cache.work.region_resolves += u32::from(ctx.region.is_some());
             }
         }
         // Every light's dragged-object shadows in one lookup.

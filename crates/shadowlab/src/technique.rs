@@ -162,6 +162,16 @@ pub trait ShadowTechnique: Send {
     fn resolves_per_pixel(&self) -> bool {
         false
     }
+    /// Whether, beyond [`ShadowTechnique::resolves_per_pixel`], a caster that leaves the scene's
+    /// permanent casters (a pick-up) changes what `resolve` writes only where the caster was seen
+    /// or where its shadow, from any point of the emitter, may fall, what `prepare` filled being
+    /// otherwise the same: then a light's turn at a pick-up resolves only those pixels again (the
+    /// rest copied from its layer before). A technique may still drop the region it is given
+    /// (`ctx.region = None`) and resolve every pixel: `volumes` does when the caster's leaving
+    /// changed how it counts (its methods or start values).
+    fn resolves_locally(&self) -> bool {
+        false
+    }
     /// The shadow maps the technique asks for on `light` in a scene of `bounds` (their size and
     /// how many; `dynamic`: dynamic casters may need composite copies), for the map-memory budget
     /// (`Shadows::set_map_budget`), which may grant a smaller size. `None`: no maps under it.

@@ -294,7 +294,8 @@ fn volumes_re_extract_only_the_objects_and_lights_that_changed() {
     assert_eq!(w.volume_objects, 0, "a camera move extracts {w:?}");
 }
 
-/// A drag step resolves no light's technique again: while an object is dragged the techniques
+/// A pick-up resolves, for `volumes`, only the pixels the object covered or shadowed. A drag step
+/// resolves no light's technique again: while an object is dragged the techniques
 /// shadow the permanent surface (the instances but the dragged ones, from the same camera), which
 /// the drag leaves alone, and the dragged object's own pass alone runs (its maps, and the
 /// permanent casters' shadow on it). A turn in place (same bounds) is a step too; holding the object
@@ -312,6 +313,12 @@ fn a_drag_step_runs_only_the_dragged_objects_pass() {
         let lights = live.renderer.shadows.shadowed_lights().count() as u32;
         let w = live.check("picked up");
         assert_eq!(w.resolves, lights, "{spec}: a pick-up resolves every light over the permanent surface: {w:?}");
+        // Volumes count only where a caster's volume holds a point: the chair's leaving changes
+        // only the pixels it covered or shadowed, from any point of a lamp (the rest of each layer
+        // is copied). Light maps refill in place without a target (another layer); map
+        // techniques' composite maps change (every pixel).
+        let regions = if spec == "volumes" { lights } else { 0 };
+        assert_eq!(w.region_resolves, regions, "{spec}: the pick-up's region resolves: {w:?}");
         // Steps longer than the chair, so that its old footprint is not inside the new one.
         for (k, by) in
             [Vec3::new(-0.7, 0.0, 0.3), Vec3::new(0.0, 0.0, -0.7), Vec3::new(0.6, 0.0, 0.2)].into_iter().enumerate()
@@ -351,6 +358,26 @@ fn a_drag_step_runs_only_the_dragged_objects_pass() {
         assert_eq!((w.resolves, w.region_resolves), (lights, 0), "{spec}: a release redoes every pixel: {w:?}");
         println!("{spec}: ok");
     }
+}
+
+/// Soft volumes (an area light's samples, each a stencil pass): a picked-up object's shadow from any
+/// point of the emitter lies in the centre's shadow of its bounds grown by the emitter's radius, so
+/// the pick-up's region holds the whole penumbra it leaves. The ceiling lamp made a 0.4 m sphere,
+/// the sun 3°; each light resolves only its region and equals a fresh engine (the region's
+/// growth itself is checked point by point in `live::temporary`'s tests).
+#[test]
+fn a_pick_up_under_soft_volumes_redoes_the_whole_penumbra() {
+    let mut live = Live::new(load_scene("room").unwrap().scene, "volumes:samples=8");
+    for (name, radius) in [("ceiling lamp", 0.4), ("sun", 3f32.to_radians())] {
+        let light = live.renderer.shadows.live().find_light(name).unwrap();
+        live.renderer.apply(Edit::Light { light, change: LightChange::Radius(radius) }).unwrap();
+    }
+    live.check("first frame");
+    let chair = live.id("chair east");
+    live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    let lights = live.renderer.shadows.shadowed_lights().count() as u32;
+    let w = live.check("picked up");
+    assert_eq!((w.resolves, w.region_resolves), (lights, lights), "every light resolves its region: {w:?}");
 }
 
 /// Parameters change in place (the viewer's sliders): a technique that keeps the maps (`hard` →

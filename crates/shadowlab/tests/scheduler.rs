@@ -419,6 +419,41 @@ fn a_cube_of_the_whole_scene_draws_the_faces_a_dragged_object_reaches() {
     }
 }
 
+/// Under a target each light's turn at a pick-up resolves, for `volumes`, only the pixels the
+/// chair covered or shadowed (its layer of before copied around them): the turned light equals a
+/// fresh engine at once, the waiting ones still show the chair where it was. Copying nothing
+/// around the region leaves the rest of the layer dark (0): the first light differs at once.
+#[test]
+fn a_turn_at_a_pick_up_resolves_only_what_the_object_changed() {
+    use shadowlab_core::Mobility;
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let volumes = TechniqueSpec::parse("volumes", &[]).unwrap();
+    for l in 0..4 {
+        r.set_technique(LightId(l), &volumes).unwrap();
+    }
+    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::VolumeObject, 0.01)]), 10.0);
+    r.set_target_ms(Some(16.0));
+    for _ in 0..5 {
+        r.render().unwrap();
+    }
+    let chair = r.shadows.live().find_instance("chair east").unwrap();
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    for frame in 0..4 {
+        let w = r.render().unwrap().work;
+        assert_eq!((w.resolves, w.region_resolves, w.held_lights), (1, 1, 3 - frame), "frame {frame}: {w:?}");
+        let fresh = r.fresh_visibility().unwrap();
+        let current: Vec<bool> = r.shadows.levels().iter().map(|l| l.2).collect();
+        for ((k, (light, f)), (_, v)) in fresh.iter().enumerate().zip(r.live_visibility().unwrap()) {
+            if current[k] {
+                assert!(f == &v, "frame {frame}: light {light} turned and equals a fresh engine");
+            }
+        }
+        assert_eq!(current.iter().filter(|&&c| c).count() as u32, 1 + frame, "frame {frame}: {current:?}");
+    }
+}
+
 /// A pick-up spread over frames refills the texels the chair shadowed; the chair is released
 /// elsewhere while those texels show a rung of fewer samples than the rest, so the release's
 /// refill takes them in with the chair's new shadow, and the end equals a fresh engine's exactly.

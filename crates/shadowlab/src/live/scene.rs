@@ -61,7 +61,13 @@ pub struct LiveScene {
     /// Per mesh, boxes around its parts in its own space ([`Mesh::part_bounds`]; meshes never
     /// change after the scene is taken over).
     mesh_parts: Vec<Vec<Aabb>>,
+    /// The last pick-ups (an instance made temporary): the permanent epoch each one brought, and
+    /// the instance's bounds then ([`LiveScene::picked_up_since`]).
+    pick_ups: Vec<(u64, Aabb)>,
 }
+
+/// Pick-ups [`LiveScene`] remembers (a light waits at most a frame per light for its turn).
+const PICK_UPS_KEPT: usize = 64;
 
 impl LiveScene {
     /// Takes the scene over; instance and light ids start as their indices.
@@ -100,6 +106,7 @@ impl LiveScene {
             fit_bounds: Aabb::EMPTY,
             fit_caster_bounds: Aabb::EMPTY,
             mesh_parts,
+            pick_ups: Vec::new(),
         };
         live.refit();
         live
@@ -123,6 +130,17 @@ impl LiveScene {
     /// Changes with every instance edit but a temporary (dragged) instance's move.
     pub fn permanent_epoch(&self) -> u64 {
         self.permanent_epoch
+    }
+
+    /// When every edit of the permanent scene since permanent epoch `epoch` was a pick-up (an
+    /// instance made temporary): the bounds the picked-up instances had then (none: nothing
+    /// changed). A visibility layer resolved at `epoch` differs from one of the permanent
+    /// instances now only where those bounds were seen or shadowed. `None` when anything else
+    /// changed, or too long ago to tell.
+    pub fn picked_up_since(&self, epoch: u64) -> Option<Vec<Aabb>> {
+        let edits = self.permanent_epoch.checked_sub(epoch)?;
+        let since: Vec<Aabb> = self.pick_ups.iter().filter(|(e, _)| *e > epoch).map(|(_, b)| *b).collect();
+        (since.len() as u64 == edits).then_some(since)
     }
 
     /// Whether some dynamic instance casts shadows (map views may then need composite copies).
@@ -234,6 +252,15 @@ impl LiveScene {
             self.instances_epoch += 1;
             if applied.kind != EditKind::MoveInstance(Mobility::Temporary) {
                 self.permanent_epoch += 1;
+                if let (EditKind::ChangeMobility { from, to: Mobility::Temporary }, Some(b)) =
+                    (applied.kind, applied.bounds_before)
+                    && from != Mobility::Temporary
+                {
+                    if self.pick_ups.len() == PICK_UPS_KEPT {
+                        self.pick_ups.remove(0);
+                    }
+                    self.pick_ups.push((self.permanent_epoch, b));
+                }
             }
         }
         self.refit();
@@ -505,5 +532,33 @@ mod tests {
         assert!(live.fit_bounds().max.x <= fit.max.x, "a dragged chair does not refit the lights");
         live.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
         assert!(live.fit_bounds().max.x >= 50.0, "released, it counts again");
+    }
+
+    /// Pick-ups since an epoch are told with the bounds they had; any other edit of the permanent
+    /// scene (a release, a move, a mobility set again) makes it unknown.
+    #[test]
+    fn pick_ups_since_an_epoch_are_told_and_nothing_else_is() {
+        let mut live = room();
+        let (chair, table) = (live.instances()[3].id, live.instances()[5].id);
+        let start = live.permanent_epoch();
+        assert_eq!(live.picked_up_since(start), Some(Vec::new()), "nothing changed");
+        let at = live.instance(chair).unwrap().transform;
+        let bounds = live.instances().iter().find(|s| s.id == chair).unwrap().bounds;
+        live.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+        // Dragging moves nothing permanent.
+        let moved = Affine3A::from_translation(Vec3::X) * at;
+        live.apply(Edit::Transform { instance: chair, transform: moved }).unwrap();
+        assert_eq!(live.picked_up_since(start), Some(vec![bounds]), "the chair where it was picked up");
+        let after = live.permanent_epoch();
+        live.apply(Edit::Mobility { instance: table, mobility: Mobility::Temporary }).unwrap();
+        assert_eq!(live.picked_up_since(start).map(|b| b.len()), Some(2));
+        assert_eq!(live.picked_up_since(after).map(|b| b.len()), Some(1));
+        // Set temporary again: not a pick-up, and it ends what can be told.
+        live.apply(Edit::Mobility { instance: table, mobility: Mobility::Temporary }).unwrap();
+        assert_eq!(live.picked_up_since(start), None);
+        let now = live.permanent_epoch();
+        live.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
+        assert_eq!(live.picked_up_since(now), None, "a release");
+        assert_eq!(live.picked_up_since(live.permanent_epoch() + 1), None, "an epoch not reached");
     }
 }

@@ -998,6 +998,12 @@ impl ShadowTechnique for Lightmaps {
         self.rest.resolves_per_pixel()
     }
 
+    /// The light maps shown change only through fills (a pick-up's refill shows when complete);
+    /// the rest decides for the other pixels.
+    fn resolves_locally(&self) -> bool {
+        self.rest.resolves_locally()
+    }
+
     fn map_demand(&self, light: &Light, bounds: &shadowlab_core::Aabb, dynamic: bool) -> Option<(u32, u32)> {
         self.rest.map_demand(light, bounds, dynamic)
     }

@@ -145,6 +145,9 @@ pub(crate) struct Volumes {
     masked: Option<LightMap>,
     /// The last frame's plans (methods, drawn casters, for the draws and the stats).
     plans: Vec<SamplePlan>,
+    /// How the last resolve counted ([`counting_key`]): a region resolved under other methods
+    /// would not match the pixels kept around it.
+    resolved_counting: Option<u64>,
     frames: u64,
     stats: VolumeStats,
 }
@@ -297,6 +300,7 @@ impl Volumes {
             receivers: None,
             masked: None,
             plans: Vec::new(),
+            resolved_counting: None,
             frames: 0,
             stats: VolumeStats::default(),
         })
@@ -938,6 +942,18 @@ fn method_draws(method: &Method) -> &'static [(&'static str, Counting, u64, Sele
     }
 }
 
+/// How a frame's plans count, apart from which casters they draw: each sample's method (with
+/// ZP+'s projection), fallback, robustness, start value, scissor and focus.
+fn counting_key(plans: &[SamplePlan]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::hash::DefaultHasher::new();
+    for p in plans {
+        // Debug prints every float so that it reads back exactly.
+        format!("{:?}", (p.method, p.fallback, p.robust, p.stencil_start, p.scissor, p.focus_rect)).hash(&mut h);
+    }
+    h.finish()
+}
+
 impl Volumes {
     fn resolve_volumes(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
@@ -1309,6 +1325,13 @@ impl ShadowTechnique for Volumes {
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        let counting = counting_key(&self.plans);
+        if ctx.region.is_some() && self.resolved_counting != Some(counting) {
+            // The pixels kept around the region were counted otherwise (a caster that left
+            // touched the near plane, or the parity start changed): every pixel again.
+            ctx.region = None;
+        }
+        self.resolved_counting = Some(counting);
         self.resolve_volumes(ctx, out);
     }
 
@@ -1335,6 +1358,12 @@ impl ShadowTechnique for Volumes {
 
     /// A pixel's counts depend on its depth and the volumes alone.
     fn resolves_per_pixel(&self) -> bool {
+        true
+    }
+
+    /// A caster's volumes count only where they enclose a point; the cropped receivers' and the
+    /// alpha-masked casters' maps change only through fills.
+    fn resolves_locally(&self) -> bool {
         true
     }
 

@@ -339,6 +339,33 @@ fn a_drag_under_a_target_moves_one_light_a_frame() {
     }
 }
 
+/// `room` at 48 × 36 from `view`, `spec` on the lights `lights` (the others as a renderer starts), a scripted
+/// clock (`cost` per unit of its kind, 10 ms of rendering) under a 16 ms target, 30 frames to
+/// settle, then `object` picked up: the renderer and the object.
+fn picked_up(
+    view: &str,
+    spec: &str,
+    lights: std::ops::Range<u32>,
+    cost: (UnitKind, f64),
+    object: &str,
+) -> (Renderer, shadowlab::InstanceId) {
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view(view).unwrap().clone();
+    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
+    let spec = TechniqueSpec::parse(spec, &[]).unwrap();
+    for l in lights {
+        r.set_technique(LightId(l), &spec).unwrap();
+    }
+    r.shadows.script_costs(CostModel::scripted(&[cost]), 10.0);
+    r.set_target_ms(Some(16.0));
+    for _ in 0..30 {
+        r.render().unwrap();
+    }
+    let id = r.shadows.live().find_instance(object).unwrap();
+    r.apply(Edit::Mobility { instance: id, mobility: shadowlab_core::Mobility::Temporary }).unwrap();
+    (r, id)
+}
+
 /// Lights that join a drag one a frame each add their views of the whole scene (the permanent
 /// casters' shadow on the dragged object) to one array, which grows as they come. Those drawn
 /// before a growth are copied into the larger array, not drawn again; once the object moves,
@@ -348,21 +375,7 @@ fn a_drag_under_a_target_moves_one_light_a_frame() {
 /// ceiling lamp and the sun; with it, none.
 #[test]
 fn views_of_the_whole_scene_survive_the_arrays_growth() {
-    use shadowlab_core::Mobility;
-    let scene = load_scene("room").unwrap().scene;
-    let view = scene.view("under_table").unwrap().clone();
-    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
-    let hard = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
-    for l in 0..4 {
-        r.set_technique(LightId(l), &hard).unwrap();
-    }
-    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::MapView, 0.1)]), 10.0);
-    r.set_target_ms(Some(16.0));
-    for _ in 0..30 {
-        r.render().unwrap();
-    }
-    let chair = r.shadows.live().find_instance("chair south").unwrap();
-    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    let (mut r, chair) = picked_up("under_table", "hard:map_size=256", 0..4, (UnitKind::MapView, 0.1), "chair south");
     // One light a frame: 1, 1, 6 and 6 slots, the array growing to 2, 8 and 16 layers.
     let held: Vec<u32> = (0..4).map(|_| r.render().unwrap().work.held_lights).collect();
     assert_eq!(held, [3, 2, 1, 0], "one light joined the drag a frame");
@@ -390,20 +403,8 @@ fn views_of_the_whole_scene_survive_the_arrays_growth() {
 /// first step.
 #[test]
 fn a_cube_of_the_whole_scene_draws_the_faces_a_dragged_object_reaches() {
-    use shadowlab_core::Mobility;
-    let scene = load_scene("room").unwrap().scene;
-    let view = scene.view("under_table").unwrap().clone();
-    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
-    let hard = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
-    r.set_technique(LightId(0), &hard).unwrap();
     // A view costs more than any frame's budget: one unit a frame, the first asked for.
-    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::MapView, 100.0)]), 10.0);
-    r.set_target_ms(Some(16.0));
-    for _ in 0..30 {
-        r.render().unwrap();
-    }
-    let chair = r.shadows.live().find_instance("chair south").unwrap();
-    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    let (mut r, chair) = picked_up("under_table", "hard:map_size=256", 0..1, (UnitKind::MapView, 100.0), "chair south");
     let w = r.render().unwrap().work;
     // The atlas's view of the chair, and the cube's faces it reaches (below and one side).
     assert!(w.resolves == 1 && w.temporary_views < 1 + 6, "the lamp joined with some of its faces: {w:?}");
@@ -425,21 +426,7 @@ fn a_cube_of_the_whole_scene_draws_the_faces_a_dragged_object_reaches() {
 /// around the region leaves the rest of the layer dark (0): the first light differs at once.
 #[test]
 fn a_turn_at_a_pick_up_resolves_only_what_the_object_changed() {
-    use shadowlab_core::Mobility;
-    let scene = load_scene("room").unwrap().scene;
-    let view = scene.view("default").unwrap().clone();
-    let mut r = Renderer::new(&gpu(), scene, &view, 48, 36);
-    let volumes = TechniqueSpec::parse("volumes", &[]).unwrap();
-    for l in 0..4 {
-        r.set_technique(LightId(l), &volumes).unwrap();
-    }
-    r.shadows.script_costs(CostModel::scripted(&[(UnitKind::VolumeObject, 0.01)]), 10.0);
-    r.set_target_ms(Some(16.0));
-    for _ in 0..5 {
-        r.render().unwrap();
-    }
-    let chair = r.shadows.live().find_instance("chair east").unwrap();
-    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    let (mut r, _) = picked_up("default", "volumes", 0..4, (UnitKind::VolumeObject, 0.01), "chair east");
     for frame in 0..4 {
         let w = r.render().unwrap().work;
         assert_eq!((w.resolves, w.region_resolves, w.held_lights), (1, 1, 3 - frame), "frame {frame}: {w:?}");

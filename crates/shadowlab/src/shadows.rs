@@ -699,10 +699,12 @@ impl Shadows {
             })
             .collect();
         let turn = order.iter().copied().find(|&k| holds[k]);
-        // The light whose turn it is redoes its whole layer and joins (or leaves) the dragged
-        // objects' pass: that is this frame's unit of work, and fills wait for the next frame
-        // (a light-map sample over a pick-up's refill alone is 3 ms at 128 × 96 on a CPU adapter).
-        if turn.is_some() {
+        // At a pick-up the light whose turn it is joins the dragged objects' pass: that is this
+        // frame's unit of work, and fills wait for the next frame (a light-map sample over a
+        // pick-up's refill alone is 3 ms at 128 × 96 on a CPU adapter). They only take the picked-up
+        // objects out, and the lights show their old data until they are done. At a release the
+        // fills put the released objects in (their volumes): the light whose turn it is needs them.
+        if turn.is_some() && casting {
             budget.exhaust();
         }
         // Rung by rung across the lights (Toromanoff alg. 13: every light's cheap shadow before

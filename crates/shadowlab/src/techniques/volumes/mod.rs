@@ -1413,3 +1413,36 @@ impl ShadowTechnique for Volumes {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::techniques::volumes::plan::Drawn;
+
+    fn plan(method: Method, stencil_start: u32, casters: &[u32]) -> SamplePlan {
+        SamplePlan {
+            method,
+            fallback: false,
+            robust: stencil_start > 0,
+            stencil_start,
+            scissor: Some([0, 0, 48, 36]),
+            focus_rect: None,
+            casters: casters.iter().map(|&slot| Drawn { slot, zp_listed: false, see_through: false }).collect(),
+        }
+    }
+
+    /// A pick-up's region is kept only while the plans count the same way: a caster leaving the
+    /// drawn list keeps the key; another method, start value or sample count changes it. Fails
+    /// with the method left out of the key.
+    #[test]
+    fn the_counting_key_ignores_the_casters_drawn_and_nothing_else() {
+        let before = [plan(Method::ZPass, 0, &[0, 1, 2]), plan(Method::ZFail, 0, &[0, 1, 2])];
+        let without = [plan(Method::ZPass, 0, &[0, 2]), plan(Method::ZFail, 0, &[0, 2])];
+        assert_eq!(counting_key(&before), counting_key(&without));
+        let flipped = [plan(Method::ZFail, 0, &[0, 2]), plan(Method::ZFail, 0, &[0, 2])];
+        let started = [plan(Method::ZPass, 1, &[0, 2]), plan(Method::ZFail, 0, &[0, 2])];
+        for other in [&flipped[..], &started[..], &without[..1]] {
+            assert_ne!(counting_key(&before), counting_key(other), "{other:?}");
+        }
+    }
+}

@@ -75,6 +75,18 @@ pub(crate) struct LightShadow {
     /// the permanent epoch it waits under (it keeps the layer it showed before; a later edit ends
     /// the wait).
     held: Option<u64>,
+    /// A pick-up's turn taken in two frames: the light's layer over the permanent surface was
+    /// resolved (into its raw layer) under this state, and the light waits one more frame to
+    /// join the dragged objects' pass.
+    staged: Option<Staged>,
+}
+
+/// What a light's raw layer was resolved from in the first frame of a staged turn.
+#[derive(Debug, Clone)]
+struct Staged {
+    key: (Signature, usize, Option<u64>),
+    camera: CameraUniform,
+    raw: u64,
 }
 
 /// What a light's layer was resolved from.
@@ -337,6 +349,7 @@ impl Shadows {
             ),
             unshadowed,
             held: None,
+            staged: None,
             level: 0,
             samples: 0,
         });
@@ -656,8 +669,8 @@ impl Shadows {
         // (WebGL2) they cast no shadow while dragged, and every cache still leaves them out.
         // While they cast, the techniques shadow the permanent surface, which a drag leaves alone.
         let casting = self.shared.compute && TemporaryShadows::active(&self.live);
-        if casting {
-            PermanentSurface::update(
+        let new_surface = casting
+            && PermanentSurface::update(
                 &mut self.permanent,
                 &self.shared,
                 encoder,
@@ -666,7 +679,7 @@ impl Shadows {
                 surface,
                 timer,
             );
-        } else {
+        if !casting {
             self.permanent = None;
         }
         let shadowed = match (&self.permanent, casting) {
@@ -680,7 +693,7 @@ impl Shadows {
         let order = self.fill_order(&surface.camera);
         let temporaries = self.live.temporary_states();
         // A drag that begins or ends under a target (Toromanoff alg. 13 applied to temporary
-        // objects: no frame takes every light's work at once): one light a frame, in fill order,
+        // objects: no frame takes every light's work at once): one light at a time, in fill order,
         // moves to the permanent surface and the dragged objects' pass, or back; each other light
         // keeps the layer it showed before (the dragged objects where they were picked up or
         // released: its last complete state) until its turn, or until the camera, the light or
@@ -698,13 +711,25 @@ impl Shadows {
                 self.cache.enabled() && !budget.is_unlimited() && before_switch && s.held.is_none_or(|e| e == epoch)
             })
             .collect();
-        let turn = order.iter().copied().find(|&k| holds[k]);
-        // At a pick-up the light whose turn it is joins the dragged objects' pass: that is this
+        // A pick-up under a budget smaller than the frame's own rendering is cut finer: each of
+        // its pieces costs about a pass over the screen (the permanent surface's G-buffer, a
+        // light's layer over it, the light's maps of the whole scene and its lookup: 2–5 ms each
+        // at 128 × 96 on a CPU adapter, against 4.5 ms for a still frame), and such a budget holds
+        // none of them beside another. The frame that draws the permanent surface turns no light,
+        // and a light's turn takes two frames: its layer over the permanent surface first (it
+        // still shows its old one), the dragged objects' pass the next.
+        let fine = casting && !budget.is_unlimited() && budget.limit_ms() < self.render_ms.unwrap_or(0.0);
+        let turn = match fine && new_surface {
+            true => None,
+            false => order.iter().copied().find(|&k| holds[k]),
+        };
+        // The light whose turn it is joins the dragged objects' pass, or leaves it: that is this
         // frame's unit of work, and fills wait for the next frame (a light-map sample over a
-        // pick-up's refill alone is 3 ms at 128 × 96 on a CPU adapter). They only take the picked-up
-        // objects out, and the lights show their old data until they are done. At a release the
-        // fills put the released objects in (their volumes): the light whose turn it is needs them.
-        if turn.is_some() && casting {
+        // pick-up's refill alone is 3 ms at 128 × 96 on a CPU adapter, 1.1 ms at a release's). The
+        // lights show their old data until those are done, but for what the turned light's new
+        // state cannot be shown without: the released objects' volumes, which its turn charges
+        // (`FrameContext::turn`).
+        if turn.is_some() || (new_surface && fine && holds.contains(&true)) {
             budget.exhaust();
         }
         // Rung by rung across the lights (Toromanoff alg. 13: every light's cheap shadow before
@@ -735,6 +760,7 @@ impl Shadows {
                     budget: &mut budget,
                     costs: &self.costs,
                     region: None,
+                    turn: turn == Some(k),
                 };
                 let before = ctx.cache.work.fills();
                 rung.technique.prepare(&mut ctx)?;
@@ -759,6 +785,7 @@ impl Shadows {
                 continue;
             }
             s.held = None;
+            let staged = s.staged.take();
             let Some(light) = self.live.light(s.light) else { continue };
             // The best allowed rung with something complete to show; none: unshadowed.
             let shown = (0..s.rungs.len().min(rungs)).rev().find(|&r| s.rungs[r].technique.shown());
@@ -825,24 +852,46 @@ impl Shadows {
                     _ => (Redo::Whole, true),
                 },
             };
-            let seed = picked_up.is_some() && matches!(redo, Redo::Region(_));
+            let mut seed = picked_up.is_some() && matches!(redo, Redo::Region(_));
+            // A staged turn's first frame resolves the raw layer and holds the light; its second
+            // joins the pass over that layer when nothing it was resolved from changed (once: a
+            // change meanwhile makes the turn whole, so that turns never stall).
+            let first_stage = fine && turn == Some(k) && staged.is_none();
+            let (mut redo, mut moved) = (redo, moved);
+            if turn == Some(k)
+                && staged.as_ref().is_some_and(|st| {
+                    st.key == key
+                        && st.raw == raw
+                        && !refilled
+                        && bytemuck::bytes_of(&st.camera) == bytemuck::bytes_of(&surface.camera)
+                })
+            {
+                (redo, moved, seed) = (Redo::Nothing, true, false);
+            }
             if redo == Redo::Nothing && !(casting && moved) {
                 continue;
             }
             if redo != Redo::Nothing {
                 self.cache.work.resolves += 1;
             }
-            s.shown = shown;
-            let (level, samples) = match shown {
-                Some(r) => {
-                    let (p, samples) = s.rungs[r].technique.progress();
-                    (r as u32 + p, samples)
-                }
-                None => (0, 0),
-            };
-            (s.level, s.samples) = (level, samples);
-            // Unshadowed too (nothing complete yet): that layer holds until a rung is shown.
-            s.resolved = Some(Resolved { key, temporaries: temporaries.clone(), casting, camera: surface.camera, raw });
+            if first_stage {
+                s.held = Some(epoch);
+                s.staged = Some(Staged { key: key.clone(), camera: surface.camera, raw });
+                self.cache.work.held_lights += 1;
+            } else {
+                s.shown = shown;
+                let (level, samples) = match shown {
+                    Some(r) => {
+                        let (p, samples) = s.rungs[r].technique.progress();
+                        (r as u32 + p, samples)
+                    }
+                    None => (0, 0),
+                };
+                (s.level, s.samples) = (level, samples);
+                // Unshadowed too (nothing complete yet): that layer holds until a rung is shown.
+                s.resolved =
+                    Some(Resolved { key, temporaries: temporaries.clone(), casting, camera: surface.camera, raw });
+            }
             let owner = shown.map_or(0, |r| s.rungs[r].owner);
             let region = match redo {
                 Redo::Region(rect) => {
@@ -869,6 +918,7 @@ impl Shadows {
                 budget: &mut budget,
                 costs: &self.costs,
                 region,
+                turn: false,
             };
             let technique: &mut dyn ShadowTechnique = match shown {
                 Some(r) => s.rungs[r].technique.as_mut(),
@@ -885,6 +935,9 @@ impl Shadows {
                 }
                 // (A technique may have given the region up and resolved every pixel.)
                 ctx.cache.work.region_resolves += u32::from(ctx.region.is_some());
+                if first_stage {
+                    continue;
+                }
                 ctx.region = None;
                 ctx.surface = surface;
                 self.temporary.add(&mut ctx, k, &s.layer, !same_scene);
@@ -916,6 +969,7 @@ impl Shadows {
                 budget: &mut budget,
                 costs: &self.costs,
                 region: None,
+                turn: false,
             };
             let outs: Vec<&VisibilityLayer> = self.lights.iter().map(|s| &s.layer).collect();
             self.temporary.run(&mut ctx, shadowed, &outs);

@@ -83,6 +83,10 @@ pub struct FrameContext<'a> {
     /// with the same prepared data (a dragged object's footprint, old and new). Its resolve may
     /// keep to them: every other pixel of the layer still holds its right value.
     pub region: Option<ResolveRegion<'a>>,
+    /// The light's turn at the start or end of a drag under a target frame time (the frame's
+    /// budget is spent on it): what its new state cannot be shown without is charged to the
+    /// budget, not asked of it ([`FrameContext::take_needed_units`]).
+    pub turn: bool,
 }
 
 /// The part of a layer a resolve has to redo ([`FrameContext::region`]).
@@ -121,6 +125,18 @@ impl FrameContext<'_> {
     /// The region's rectangle, if the resolve has one (for [`scissor_to`]).
     pub fn region_rect(&self) -> Option<[u32; 4]> {
         self.region.map(|r| r.rect)
+    }
+
+    /// Units the light's new state cannot be shown without (an object's volumes: Toromanoff alg.
+    /// 14 shows a light's volumes only when all its objects' are in): in the light's
+    /// [turn](FrameContext::turn) they run and are charged, whatever the budget; otherwise as
+    /// [`FrameContext::take_units`].
+    pub fn take_needed_units(&mut self, kind: UnitKind, size: UnitSize, count: u32) -> bool {
+        if self.turn {
+            count_units(&mut self.cache.units, kind, size, count);
+            return true;
+        }
+        self.take_units(kind, size, count)
     }
 
     /// Charges `count` units of `kind`, each of `size` (texels, faces), to the frame's budget:

@@ -60,7 +60,9 @@ pub struct Work {
     /// Units left for later frames by the budget.
     pub deferred: u32,
     /// Lights that kept the layer they showed before a drag began or ended, waiting for their turn
-    /// (under a target frame time, one light a frame moves to or from the dragged objects' pass).
+    /// (under a target frame time, one light at a time moves to or from the dragged objects' pass:
+    /// a frame each, or at a pick-up under a budget below the render time two, the light held
+    /// during the first).
     pub held_lights: u32,
     /// The frame's budget for fills (infinite without a target frame time) and what it planned.
     pub budget_ms: f64,

@@ -58,15 +58,16 @@ pub struct PermanentSurface {
 
 impl PermanentSurface {
     /// Brings `slot` up to date with `surface` (drawing it when anything it shows changed).
-    pub fn update<'s>(
-        slot: &'s mut Option<Self>,
+    /// Returns whether it was drawn.
+    pub fn update(
+        slot: &mut Option<Self>,
         shared: &Shared,
         encoder: &mut wgpu::CommandEncoder,
         gpu_scene: &GpuScene,
         live: &LiveScene,
         surface: &SurfaceInputs,
         timer: &mut GpuTimer,
-    ) -> &'s SurfaceInputs {
+    ) -> bool {
         let device = &shared.gpu.device;
         let (width, height) = (surface.width, surface.height);
         if slot.as_ref().is_none_or(|p| p.gbuffer.size() != (width, height)) {
@@ -91,8 +92,9 @@ impl PermanentSurface {
             let camera = &p.inputs.camera_buffer;
             p.gbuffer.draw(shared, encoder, gpu_scene, camera, timestamps, |g| g.mobility != Mobility::Temporary);
             p.drawn = Some(key);
+            return true;
         }
-        &p.inputs
+        false
     }
 
     pub fn bytes(&self) -> u64 {

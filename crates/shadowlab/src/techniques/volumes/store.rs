@@ -414,7 +414,7 @@ impl Store {
                 }
                 // One object's volumes for one light sample is a unit of the frame's budget (alg. 14).
                 let faces = u64::from(topology.meshes[c.mesh].faces);
-                if !ctx.take_units(crate::live::scheduler::UnitKind::VolumeObject, faces, 1) {
+                if !ctx.take_needed_units(crate::live::scheduler::UnitKind::VolumeObject, faces, 1) {
                     deferred = true;
                     continue;
                 }

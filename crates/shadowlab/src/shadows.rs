@@ -775,7 +775,7 @@ impl Shadows {
             let ids: Vec<LightId> = self.lights.iter().map(|s| s.light).collect();
             self.temporary.begin(&self.shared, surface.width, surface.height, &ids)
         } else {
-            self.temporary.release();
+            self.temporary.end_drag();
             0
         };
         for (k, s) in self.lights.iter_mut().enumerate() {
@@ -799,23 +799,43 @@ impl Shadows {
                 Some(r) => (s.rungs[r].technique.resolves_per_pixel(), s.rungs[r].technique.resolves_locally()),
                 None => (s.unshadowed.resolves_per_pixel(), s.unshadowed.resolves_locally()),
             };
-            // A pick-up (the light's turn, or every light at once without a target): when the
-            // light's layer was resolved over the whole surface from this camera and nothing else
-            // changed since (the emitter, the rung and what it shows, every other instance), only
-            // the pixels the picked-up objects covered or shadowed change, for a technique that
-            // resolves locally: its layer is copied and those are resolved again.
+            // A pick-up or a release (the light's turn, or every light at once without a target):
+            // when the light's layer was resolved over the whole surface from this camera and
+            // nothing else changed since (the emitter, the rung and what it shows, every other
+            // instance), only the pixels the objects covered or shadowed (at a pick-up), or cover
+            // and shadow (at a release), change, for a technique that resolves locally: its layer
+            // (at a release, the one over the permanent surface, kept for it) is copied and those
+            // are resolved again.
+            // What the technique filled this frame must be the same, or (at a release) only the
+            // released objects' own data: their volumes, which their footprint holds too.
+            let filled_only = match shown {
+                Some(r) => s.rungs[r].technique.filled_only(),
+                None => s.unshadowed.filled_only(),
+            };
             let picked_up = match &s.resolved {
                 Some(r)
                     if self.cache.enabled()
-                        && casting
-                        && !r.casting
-                        && !refilled
+                        && casting != r.casting
+                        && (casting || self.temporary.kept_raw(k, s.light) == Some(r.raw))
                         && per_pixel
                         && local
-                        && (r.key.0.emitter, r.key.1, r.key.2) == (key.0.emitter, key.1, key.2)
+                        && (r.key.0.emitter, r.key.1) == (key.0.emitter, key.1)
                         && bytemuck::bytes_of(&r.camera) == bytemuck::bytes_of(&surface.camera) =>
                 {
-                    self.live.picked_up_since(r.key.0.object).map(|boxes| {
+                    let same_data = !refilled && r.key.2 == key.2;
+                    let boxes = match casting {
+                        true => self.live.picked_up_since(r.key.0.object).filter(|_| same_data),
+                        false => self
+                            .live
+                            .released_since(r.key.0.object)
+                            .filter(|released| {
+                                same_data
+                                    || filled_only
+                                        .is_some_and(|ids| ids.iter().all(|i| released.iter().any(|(o, _)| o == i)))
+                            })
+                            .map(|released| released.into_iter().map(|(_, b)| b).collect()),
+                    };
+                    boxes.map(|boxes| {
                         let scene =
                             self.live.instances().iter().fold(shadowlab_core::Aabb::EMPTY, |a, i| a.union(&i.bounds));
                         let size = map_size(surface.width, surface.height);
@@ -942,9 +962,16 @@ impl Shadows {
                 ctx.surface = surface;
                 self.temporary.add(&mut ctx, k, &s.layer, !same_scene);
             } else {
+                if seed {
+                    self.temporary.seed_from_raw(ctx.encoder, k, &s.layer);
+                }
                 technique.resolve(&mut ctx, &s.layer);
                 ctx.cache.work.region_resolves += u32::from(ctx.region.is_some());
             }
+        }
+        // The raw layers outlive a drag until every light has left the pass (see `end_drag`).
+        if !casting && self.lights.iter().all(|s| s.resolved.as_ref().is_none_or(|r| !r.casting)) {
+            self.temporary.release();
         }
         // Every light's dragged-object shadows in one lookup.
         if let Some((first, light)) = self.temporary.first_pending().and_then(|k| {

@@ -18,7 +18,7 @@ use crate::gpu::Gpu;
 use crate::gpu_scene::GpuScene;
 use crate::light_map::LightMap;
 use crate::live::scheduler::{Budget, CostModel, UnitKind, UnitSize, count_units};
-use crate::live::{LiveScene, ShadowCache};
+use crate::live::{InstanceId, LiveScene, ShadowCache};
 use crate::timing::GpuTimer;
 
 /// A technique could not be set up or run.
@@ -179,14 +179,26 @@ pub trait ShadowTechnique: Send {
         false
     }
     /// Whether, beyond [`ShadowTechnique::resolves_per_pixel`], a caster that leaves the scene's
-    /// permanent casters (a pick-up) changes what `resolve` writes only where the caster was seen
-    /// or where its shadow, from any point of the emitter, may fall, what `prepare` filled being
-    /// otherwise the same: then a light's turn at a pick-up resolves only those pixels again (the
-    /// rest copied from its layer before). A technique may still drop the region it is given
+    /// permanent casters (a pick-up) or joins them (a release) changes what `resolve` writes only
+    /// where the caster is seen or where its shadow, from any point of the emitter, may fall,
+    /// what `prepare` filled being otherwise the same (or, at a release, only the caster's own
+    /// data: [`ShadowTechnique::filled_only`]): then a light's turn at a pick-up or a release
+    /// resolves only those pixels again (the rest copied from its layer before, or at a release
+    /// from its layer over the permanent surface). A technique may still drop the region it is given
     /// (`ctx.region = None`) and resolve every pixel: `volumes` does when the caster's leaving
     /// changed how it counts (its methods or start values).
     fn resolves_locally(&self) -> bool {
         false
+    }
+    /// The instances whose data alone the last `prepare` changed in what the technique shows
+    /// (`volumes`: those objects' volumes; none: it changed nothing), or `None` when it changed
+    /// anything else (a map, a light map) or cannot tell. For a technique that
+    /// [resolves locally](ShadowTechnique::resolves_locally), a layer resolved before that
+    /// `prepare` then still holds wherever those instances are not seen and their shadows cannot
+    /// fall: a light's turn at a release, which fills the released objects' volumes, resolves
+    /// only there.
+    fn filled_only(&self) -> Option<&[InstanceId]> {
+        None
     }
     /// The shadow maps the technique asks for on `light` in a scene of `bounds` (their size and
     /// how many; `dynamic`: dynamic casters may need composite copies), for the map-memory budget

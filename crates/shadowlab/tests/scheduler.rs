@@ -503,13 +503,19 @@ fn a_turn_at_a_pick_up_resolves_only_what_the_object_changed_when(staged: bool) 
     // they are charged to the turn (`FrameContext::take_needed_units`; asked of the spent budget
     // instead, the turned light shows no shadow of the chair until a later frame).
     let t = r.shadows.live().instance(chair).unwrap().transform;
-    let moved = glam::Affine3A::from_translation(Vec3::new(-0.6, 0.0, 0.4)) * t;
+    let moved = glam::Affine3A::from_translation(Vec3::new(-2.0, 0.0, -1.2)) * t;
     r.apply(Edit::Transform { instance: chair, transform: moved }).unwrap();
-    r.render().unwrap();
+    // Released where the last frame showed it, or moved and released between two frames: each
+    // turn resolves only the pixels the chair covers or shadows now, over the light's layer of
+    // the permanent surface, which the release keeps (copying nothing, 5 and 16 of the last two
+    // turned lights' pixels keep the chair's shadow where the last frame put it).
+    if !staged {
+        r.render().unwrap();
+    }
     r.apply(Edit::Mobility { instance: chair, mobility: shadowlab_core::Mobility::Static }).unwrap();
     for frame in 0..4 {
         let w = r.render().unwrap().work;
-        assert_eq!(w.held_lights, 3 - frame, "release, frame {frame}: {w:?}");
+        assert_eq!((w.resolves, w.region_resolves, w.held_lights), (1, 1, 3 - frame), "release, frame {frame}: {w:?}");
         turned_equal_fresh(&r, frame as usize + 1, &format!("release, frame {frame}"));
     }
 }

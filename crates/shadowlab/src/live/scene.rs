@@ -61,13 +61,15 @@ pub struct LiveScene {
     /// Per mesh, boxes around its parts in its own space ([`Mesh::part_bounds`]; meshes never
     /// change after the scene is taken over).
     mesh_parts: Vec<Vec<Aabb>>,
-    /// The last pick-ups (an instance made temporary): the permanent epoch each one brought, and
-    /// the instance's bounds then ([`LiveScene::picked_up_since`]).
-    pick_ups: Vec<(u64, Aabb)>,
+    /// The last pick-ups (an instance made temporary) and releases (made permanent again): the
+    /// permanent epoch each one brought, whether it was a pick-up, and the instance's bounds in
+    /// the permanent scene (where it was picked up, where it was released;
+    /// [`LiveScene::picked_up_since`], [`LiveScene::released_since`]).
+    switches: Vec<(u64, bool, InstanceId, Aabb)>,
 }
 
-/// Pick-ups [`LiveScene`] remembers (a light waits at most a frame per light for its turn).
-const PICK_UPS_KEPT: usize = 64;
+/// Pick-ups and releases [`LiveScene`] remembers (a light waits at most a frame per light for its turn).
+const SWITCHES_KEPT: usize = 64;
 
 impl LiveScene {
     /// Takes the scene over; instance and light ids start as their indices.
@@ -106,7 +108,7 @@ impl LiveScene {
             fit_bounds: Aabb::EMPTY,
             fit_caster_bounds: Aabb::EMPTY,
             mesh_parts,
-            pick_ups: Vec::new(),
+            switches: Vec::new(),
         };
         live.refit();
         live
@@ -138,8 +140,22 @@ impl LiveScene {
     /// instances now only where those bounds were seen or shadowed. `None` when anything else
     /// changed, or too long ago to tell.
     pub fn picked_up_since(&self, epoch: u64) -> Option<Vec<Aabb>> {
+        self.switched_since(epoch, true).map(|s| s.into_iter().map(|(_, b)| b).collect())
+    }
+
+    /// When every edit of the permanent scene since permanent epoch `epoch` was a release (a
+    /// temporary instance made permanent): the released instances and their bounds (none: nothing
+    /// changed). A visibility layer resolved at `epoch` differs from one of the permanent
+    /// instances now only where those bounds are seen or shadowed. `None` otherwise, as
+    /// [`LiveScene::picked_up_since`].
+    pub fn released_since(&self, epoch: u64) -> Option<Vec<(InstanceId, Aabb)>> {
+        self.switched_since(epoch, false)
+    }
+
+    fn switched_since(&self, epoch: u64, pick_up: bool) -> Option<Vec<(InstanceId, Aabb)>> {
         let edits = self.permanent_epoch.checked_sub(epoch)?;
-        let since: Vec<Aabb> = self.pick_ups.iter().filter(|(e, _)| *e > epoch).map(|(_, b)| *b).collect();
+        let since: Vec<(InstanceId, Aabb)> =
+            self.switches.iter().filter(|s| s.0 > epoch && s.1 == pick_up).map(|s| (s.2, s.3)).collect();
         (since.len() as u64 == edits).then_some(since)
     }
 
@@ -252,14 +268,25 @@ impl LiveScene {
             self.instances_epoch += 1;
             if applied.kind != EditKind::MoveInstance(Mobility::Temporary) {
                 self.permanent_epoch += 1;
-                if let (EditKind::ChangeMobility { from, to: Mobility::Temporary }, Some(b)) =
-                    (applied.kind, applied.bounds_before)
-                    && from != Mobility::Temporary
-                {
-                    if self.pick_ups.len() == PICK_UPS_KEPT {
-                        self.pick_ups.remove(0);
+                // A pick-up, where the instance was; a release, where it is.
+                let switch = match (applied.kind, applied.instance) {
+                    (EditKind::ChangeMobility { from, to: Mobility::Temporary }, Some(id))
+                        if from != Mobility::Temporary =>
+                    {
+                        applied.bounds_before.map(|b| (true, id, b))
                     }
-                    self.pick_ups.push((self.permanent_epoch, b));
+                    (EditKind::ChangeMobility { from: Mobility::Temporary, to }, Some(id))
+                        if to != Mobility::Temporary =>
+                    {
+                        self.instance_index(id).map(|i| (false, id, self.instances[i].bounds))
+                    }
+                    _ => None,
+                };
+                if let Some((pick_up, id, b)) = switch {
+                    if self.switches.len() == SWITCHES_KEPT {
+                        self.switches.remove(0);
+                    }
+                    self.switches.push((self.permanent_epoch, pick_up, id, b));
                 }
             }
         }
@@ -534,10 +561,10 @@ mod tests {
         assert!(live.fit_bounds().max.x >= 50.0, "released, it counts again");
     }
 
-    /// Pick-ups since an epoch are told with the bounds they had; any other edit of the permanent
+    /// Pick-ups (releases) since an epoch are told with the bounds they had (have); any other edit of the permanent
     /// scene (a release, a move, a mobility set again) makes it unknown.
     #[test]
-    fn pick_ups_since_an_epoch_are_told_and_nothing_else_is() {
+    fn pick_ups_and_releases_since_an_epoch_are_told_and_nothing_else_is() {
         let mut live = room();
         let (chair, table) = (live.instances()[3].id, live.instances()[5].id);
         let start = live.permanent_epoch();
@@ -560,5 +587,16 @@ mod tests {
         live.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
         assert_eq!(live.picked_up_since(now), None, "a release");
         assert_eq!(live.picked_up_since(live.permanent_epoch() + 1), None, "an epoch not reached");
+        // The release is told where the chair is now, and only as a release.
+        let landed = live.instances().iter().find(|s| s.id == chair).unwrap().bounds;
+        assert_ne!(landed, bounds);
+        assert_eq!(live.released_since(now), Some(vec![(chair, landed)]), "the chair where it was released");
+        assert_eq!(live.released_since(start), None, "pick-ups since");
+        let later = live.permanent_epoch();
+        live.apply(Edit::Mobility { instance: table, mobility: Mobility::Static }).unwrap();
+        assert_eq!(live.released_since(now).map(|b| b.len()), Some(2));
+        assert_eq!(live.released_since(later).map(|b| b.len()), Some(1));
+        live.apply(Edit::Transform { instance: table, transform: Affine3A::IDENTITY }).unwrap();
+        assert_eq!(live.released_since(now), None, "a move");
     }
 }

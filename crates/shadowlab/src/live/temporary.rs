@@ -257,16 +257,42 @@ impl TemporaryShadows {
         );
     }
 
+    /// The generation of the `k`-th light's raw layer, while the layers made for the last drag
+    /// are kept after it ([`TemporaryShadows::end_drag`]) and `k` is still `light`.
+    pub fn kept_raw(&self, k: usize, light: LightId) -> Option<u64> {
+        self.layers.as_ref().filter(|l| l.lights.get(k) == Some(&light)).map(|_| self.generation)
+    }
+
+    /// Copies the `k`-th light's raw layer into `to` (its own layer, at a release: the light's
+    /// technique over the permanent surface, before the released objects' pixels are resolved).
+    pub fn seed_from_raw(&self, encoder: &mut wgpu::CommandEncoder, k: usize, to: &VisibilityLayer) {
+        let raw = &self.layers.as_ref().expect("kept_raw comes first").raw_texture;
+        encoder.copy_texture_to_texture(
+            layer_copy(raw, k as u32, [0, 0]),
+            to.texture.as_image_copy(),
+            to.texture.size(),
+        );
+    }
+
+    /// The frame of a release: the dragged objects' maps are freed, the lights' raw layers kept
+    /// until every light has left the pass ([`TemporaryShadows::release`]): a light whose turn
+    /// comes copies its own and resolves only where the released objects are seen or shadowed.
+    pub fn end_drag(&mut self) {
+        (self.maps, self.atlas, self.next_slot) = (None, None, 0);
+        self.permanent.clear();
+        self.pending.clear();
+    }
+
     /// The engine's index of the first light [`TemporaryShadows::add`] queued this frame.
     pub fn first_pending(&self) -> Option<usize> {
         self.pending.first().map(|p| p.layer as usize)
     }
 
-    /// Frees the layers and maps once nothing is dragged: a drag holds them, a still scene does not.
+    /// Frees the layers and maps once nothing is dragged and every light has left the pass: a drag
+    /// holds them, a still scene does not.
     pub fn release(&mut self) {
-        (self.layers, self.maps, self.atlas, self.next_slot) = (None, None, None, 0);
-        self.permanent.clear();
-        self.pending.clear();
+        self.end_drag();
+        self.layers = None;
     }
 
     pub fn bytes(&self) -> u64 {

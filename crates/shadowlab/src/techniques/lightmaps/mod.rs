@@ -113,6 +113,7 @@ fn compose(
         filled: 0,
         draws: 0,
         version: 0,
+        changed_itself: true,
         rest_version: None,
         looks: 0,
     }))
@@ -162,6 +163,8 @@ struct Lightmaps {
     /// [`ShadowTechnique::shown_version`]: bumped when a shown layer is written, the textures are
     /// made again, `rest` shows something new or what the lookup reads besides the layers changes.
     version: u64,
+    /// Whether the last `prepare` changed what the light maps show (not only `rest`).
+    changed_itself: bool,
     /// `rest`'s own version when it tracks one.
     rest_version: Option<u64>,
     /// A hash of what the lookup reads besides the layers (the patches, which are shown).
@@ -712,6 +715,7 @@ impl ShadowTechnique for Lightmaps {
         if rest_changed {
             self.version += 1;
         }
+        let by_rest = self.version;
         let samples = self.emitter_samples(ctx.light);
         let epoch = ctx.live.epoch();
         if self.state.as_ref().is_none_or(|s| s.epoch != epoch) {
@@ -979,6 +983,7 @@ impl ShadowTechnique for Lightmaps {
             0,
             bytemuck::bytes_of(&Vec4::new(state.patches.len() as f32, state.size.0 as f32, state.size.1 as f32, 0.0)),
         );
+        self.changed_itself = self.version != by_rest;
         Ok(())
     }
 
@@ -1002,6 +1007,11 @@ impl ShadowTechnique for Lightmaps {
     /// the rest decides for the other pixels.
     fn resolves_locally(&self) -> bool {
         self.rest.resolves_locally()
+    }
+
+    /// What `rest` filled, when the light maps showed nothing new.
+    fn filled_only(&self) -> Option<&[InstanceId]> {
+        if self.changed_itself { None } else { self.rest.filled_only() }
     }
 
     fn map_demand(&self, light: &Light, bounds: &shadowlab_core::Aabb, dynamic: bool) -> Option<(u32, u32)> {

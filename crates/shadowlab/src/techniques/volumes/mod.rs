@@ -57,6 +57,7 @@ use self::store::{DARK_CAPS, LIGHT_CAPS, SIDES, Store, runs};
 use crate::context::{Shared, storage_entry, uniform_entry};
 use crate::frame::VisibilityLayer;
 use crate::light_map::LightMap;
+use crate::live::InstanceId;
 use crate::shadowmap::lookup_layout;
 use crate::technique::{FrameContext, ShadowTechnique, TechniqueError, TechniqueInfo, TechniqueStats, scissor_to};
 use crate::timing::PassKind;
@@ -148,6 +149,8 @@ pub(crate) struct Volumes {
     /// How the last resolve counted ([`counting_key`]): a region resolved under other methods
     /// would not match the pixels kept around it.
     resolved_counting: Option<u64>,
+    /// What the last `prepare` filled, when only objects' volumes ([`ShadowTechnique::filled_only`]).
+    filled_only: Option<Vec<InstanceId>>,
     frames: u64,
     stats: VolumeStats,
 }
@@ -301,6 +304,7 @@ impl Volumes {
             masked: None,
             plans: Vec::new(),
             resolved_counting: None,
+            filled_only: None,
             frames: 0,
             stats: VolumeStats::default(),
         })
@@ -955,6 +959,118 @@ fn counting_key(plans: &[SamplePlan]) -> u64 {
 }
 
 impl Volumes {
+    fn prepare_volumes(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
+        #[cfg(not(target_arch = "wasm32"))]
+        self.read_stats(&ctx.gpu.device);
+        let size = (ctx.surface.width, ctx.surface.height);
+        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
+        if emitter != self.emitter_version {
+            // The light moved or changed size: new samples (and new buffers when their count
+            // changed). The store's items record the emitter version: they re-extract.
+            let samples = volume_samples(&self.params, ctx.light);
+            if let Some(state) = &self.state
+                && state.samples == samples.len()
+            {
+                write_samples(&ctx.gpu.queue, &state.sample_buffer, state.sample_stride, &samples);
+            }
+            self.samples = samples;
+            self.emitter_version = emitter;
+        }
+        let topology = self.topology.get_or_insert_with(|| VolumeTopology::shared(ctx.shared, ctx.scene)).clone();
+        if self.caster_epoch != Some(ctx.live.epoch()) {
+            // The scene changed: take its casters and receivers as they are now, in the same buffers
+            // when they fit (each caster keeps its slot, and its volumes while it stands still).
+            self.casters = Caster::all(ctx.live, &topology);
+            let set = self.caster_set;
+            self.casters.retain(|c| set.keeps(c.mobility));
+            // Alpha-masked casters leave the volumes for their own map (see the module's doc).
+            let masked = masked_instances(ctx);
+            let fallback = !self.crop && !self.mask_only && self.casters.iter().any(|c| masked.contains(&c.id));
+            if fallback {
+                self.casters.retain(|c| !masked.contains(&c.id));
+                if self.masked.is_none() {
+                    let mut map = LightMap::new(ctx.shared, &self.params, false);
+                    map.raster.only_masked = true;
+                    self.masked = Some(map);
+                }
+            } else if let Some(map) = self.masked.take()
+                && let Some(maps) = &map.maps
+            {
+                maps.forget_items(ctx);
+            }
+            self.caster_bounds = caster_bounds(&self.casters);
+            self.caster_epoch = Some(ctx.live.epoch());
+            if let Some(store) = &mut self.store
+                && !store.place(ctx, &topology, &self.casters)
+            {
+                store.forget_all(ctx);
+                self.store = None;
+            }
+            if let Some(r) = &mut self.receivers
+                && !r.refresh(ctx)
+            {
+                if let Some(maps) = &r.map.maps {
+                    maps.forget_items(ctx);
+                }
+                self.receivers = None;
+            }
+        }
+        let sources: Vec<LightSource> = self.samples.iter().map(|s| LightSource::of_sample(s.sample)).collect();
+        let point = matches!(sources.first(), Some(LightSource::Point(_)));
+        if let Some(store) = &self.store
+            && !store.fits_samples(sources.len() as u32, point)
+        {
+            store.forget_all(ctx);
+            self.store = None;
+        }
+        let store = match &mut self.store {
+            Some(store) => store,
+            None => self.store.insert(Store::new(ctx, &topology, &self.casters, sources.len() as u32, point)),
+        };
+        store.extract(ctx, &topology, &self.casters, &sources)?;
+        if self.state.as_ref().is_none_or(|s| s.size != size || s.samples != self.samples.len()) {
+            self.state = Some(self.build_state(ctx));
+        }
+        if self.crop && self.receivers.is_none() {
+            self.receivers = Some(Receivers::new(ctx, &self.params));
+        }
+        if let Some(r) = &mut self.receivers {
+            r.map.update(ctx)?;
+        }
+        if let Some(map) = &mut self.masked {
+            map.update(ctx)?;
+        }
+        let (Some(state), Some(store)) = (&self.state, &self.store) else { return Ok(()) };
+        let camera = volume_camera(ctx);
+        if self.settings.focus {
+            self.focus_spheres = focus_spheres(ctx.live);
+        }
+        let frame = FrameView {
+            camera: &camera,
+            width: size.0,
+            height: size.1,
+            range: ctx.light.range,
+            casters: &self.casters,
+            slots: &store.slot_of,
+            topology: &topology,
+            bounds: &self.caster_bounds,
+            focus: &self.focus_spheres,
+        };
+        let volume_matrix = camera.volume_matrix();
+        self.plans.clear();
+        for (i, &source) in sources.iter().enumerate() {
+            let plan = plan::plan(&self.settings, &frame, source);
+            let (zp_matrix, zp_origin) = match plan.method {
+                Method::ZpPlus(zp) => (zp.matrix, zp.origin.extend(1.0)),
+                _ => (Mat4::IDENTITY, Vec4::ZERO),
+            };
+            let uniform = PassUniform { volume_matrix, zp_matrix, zp_origin };
+            ctx.gpu.queue.write_buffer(&state.pass_buffer, i as u64 * state.pass_stride, bytemuck::bytes_of(&uniform));
+            self.plans.push(plan);
+        }
+        Ok(())
+    }
+
     fn resolve_volumes(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
         let (Some(state), Some(store)) = (&mut self.state, &self.store) else { return };
         let shared = ctx.shared;
@@ -1213,115 +1329,21 @@ impl ShadowTechnique for Volumes {
     }
 
     fn prepare(&mut self, ctx: &mut FrameContext<'_>) -> Result<(), TechniqueError> {
-        #[cfg(not(target_arch = "wasm32"))]
-        self.read_stats(&ctx.gpu.device);
-        let size = (ctx.surface.width, ctx.surface.height);
-        let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
-        if emitter != self.emitter_version {
-            // The light moved or changed size: new samples (and new buffers when their count
-            // changed). The store's items record the emitter version: they re-extract.
-            let samples = volume_samples(&self.params, ctx.light);
-            if let Some(state) = &self.state
-                && state.samples == samples.len()
-            {
-                write_samples(&ctx.gpu.queue, &state.sample_buffer, state.sample_stride, &samples);
-            }
-            self.samples = samples;
-            self.emitter_version = emitter;
-        }
-        let topology = self.topology.get_or_insert_with(|| VolumeTopology::shared(ctx.shared, ctx.scene)).clone();
-        if self.caster_epoch != Some(ctx.live.epoch()) {
-            // The scene changed: take its casters and receivers as they are now, in the same buffers
-            // when they fit (each caster keeps its slot, and its volumes while it stands still).
-            self.casters = Caster::all(ctx.live, &topology);
-            let set = self.caster_set;
-            self.casters.retain(|c| set.keeps(c.mobility));
-            // Alpha-masked casters leave the volumes for their own map (see the module's doc).
-            let masked = masked_instances(ctx);
-            let fallback = !self.crop && !self.mask_only && self.casters.iter().any(|c| masked.contains(&c.id));
-            if fallback {
-                self.casters.retain(|c| !masked.contains(&c.id));
-                if self.masked.is_none() {
-                    let mut map = LightMap::new(ctx.shared, &self.params, false);
-                    map.raster.only_masked = true;
-                    self.masked = Some(map);
-                }
-            } else if let Some(map) = self.masked.take()
-                && let Some(maps) = &map.maps
-            {
-                maps.forget_items(ctx);
-            }
-            self.caster_bounds = caster_bounds(&self.casters);
-            self.caster_epoch = Some(ctx.live.epoch());
-            if let Some(store) = &mut self.store
-                && !store.place(ctx, &topology, &self.casters)
-            {
-                store.forget_all(ctx);
-                self.store = None;
-            }
-            if let Some(r) = &mut self.receivers
-                && !r.refresh(ctx)
-            {
-                if let Some(maps) = &r.map.maps {
-                    maps.forget_items(ctx);
-                }
-                self.receivers = None;
-            }
-        }
-        let sources: Vec<LightSource> = self.samples.iter().map(|s| LightSource::of_sample(s.sample)).collect();
-        let point = matches!(sources.first(), Some(LightSource::Point(_)));
-        if let Some(store) = &self.store
-            && !store.fits_samples(sources.len() as u32, point)
-        {
-            store.forget_all(ctx);
-            self.store = None;
-        }
-        let store = match &mut self.store {
-            Some(store) => store,
-            None => self.store.insert(Store::new(ctx, &topology, &self.casters, sources.len() as u32, point)),
+        let (fills, objects) = (ctx.cache.work.fills(), ctx.cache.work.volume_objects);
+        let prepared = self.prepare_volumes(ctx);
+        // Only objects' volumes filled (the other fills are the receivers' maps): those objects'.
+        let extracted = ctx.cache.work.volume_objects - objects;
+        let others = ctx.cache.work.fills().iter().zip(fills).map(|(a, b)| a - b).sum::<u32>() - extracted;
+        self.filled_only = match (&self.store, prepared.is_ok() && others == 0) {
+            (Some(store), true) => Some(store.extracted.clone()),
+            (None, true) if extracted == 0 => Some(Vec::new()),
+            _ => None,
         };
-        store.extract(ctx, &topology, &self.casters, &sources)?;
-        if self.state.as_ref().is_none_or(|s| s.size != size || s.samples != self.samples.len()) {
-            self.state = Some(self.build_state(ctx));
-        }
-        if self.crop && self.receivers.is_none() {
-            self.receivers = Some(Receivers::new(ctx, &self.params));
-        }
-        if let Some(r) = &mut self.receivers {
-            r.map.update(ctx)?;
-        }
-        if let Some(map) = &mut self.masked {
-            map.update(ctx)?;
-        }
-        let (Some(state), Some(store)) = (&self.state, &self.store) else { return Ok(()) };
-        let camera = volume_camera(ctx);
-        if self.settings.focus {
-            self.focus_spheres = focus_spheres(ctx.live);
-        }
-        let frame = FrameView {
-            camera: &camera,
-            width: size.0,
-            height: size.1,
-            range: ctx.light.range,
-            casters: &self.casters,
-            slots: &store.slot_of,
-            topology: &topology,
-            bounds: &self.caster_bounds,
-            focus: &self.focus_spheres,
-        };
-        let volume_matrix = camera.volume_matrix();
-        self.plans.clear();
-        for (i, &source) in sources.iter().enumerate() {
-            let plan = plan::plan(&self.settings, &frame, source);
-            let (zp_matrix, zp_origin) = match plan.method {
-                Method::ZpPlus(zp) => (zp.matrix, zp.origin.extend(1.0)),
-                _ => (Mat4::IDENTITY, Vec4::ZERO),
-            };
-            let uniform = PassUniform { volume_matrix, zp_matrix, zp_origin };
-            ctx.gpu.queue.write_buffer(&state.pass_buffer, i as u64 * state.pass_stride, bytemuck::bytes_of(&uniform));
-            self.plans.push(plan);
-        }
-        Ok(())
+        prepared
+    }
+
+    fn filled_only(&self) -> Option<&[InstanceId]> {
+        self.filled_only.as_deref()
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {

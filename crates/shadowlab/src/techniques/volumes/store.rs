@@ -115,6 +115,8 @@ pub(super) struct Store {
     /// Whether every item has been extracted once (before, the light shows no volumes), and
     /// whether none is stale now (the budget may leave some for later frames).
     pub complete_once: bool,
+    /// The instances whose volumes the last [`Store::extract`] wrote (for any sample).
+    pub extracted: Vec<InstanceId>,
     pub current: bool,
     pub bytes: u64,
 }
@@ -247,6 +249,7 @@ impl Store {
             batches: Vec::new(),
             checked: None,
             complete_once: false,
+            extracted: Vec::new(),
             current: false,
             bytes,
         };
@@ -374,6 +377,7 @@ impl Store {
         let emitter = ctx.live.light_state(ctx.light_id).map_or(0, |s| s.emitter_version);
         let now = Checked { epoch: ctx.live.epoch(), cache_generation: ctx.cache.generation(), emitter };
         let n_items = (sources.len() * casters.len()) as u32;
+        self.extracted.clear();
         if ctx.cache.enabled() && self.checked == Some(now) {
             ctx.cache.work.reused += n_items;
             self.current = true;
@@ -430,6 +434,9 @@ impl Store {
                 });
                 ctx.cache.commit(key, signature);
                 ctx.cache.work.volume_objects += 1;
+                if !self.extracted.contains(&c.id) {
+                    self.extracted.push(c.id);
+                }
             }
         }
         // With items left for later frames, look again next frame.

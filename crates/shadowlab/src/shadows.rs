@@ -761,6 +761,7 @@ impl Shadows {
                     costs: &self.costs,
                     region: None,
                     turn: turn == Some(k),
+                    kept: false,
                 };
                 let before = ctx.cache.work.fills();
                 rung.technique.prepare(&mut ctx)?;
@@ -894,6 +895,14 @@ impl Shadows {
             if redo != Redo::Nothing {
                 self.cache.work.resolves += 1;
             }
+            // The layer written holds the last resolve of this rung over the same surface (only
+            // its data changed: a fill shown).
+            let kept = self.cache.enabled()
+                && !matches!(redo, Redo::Region(_))
+                && s.resolved.as_ref().is_some_and(|r| {
+                    (&r.key.0, r.key.1, r.casting, r.raw) == (&key.0, key.1, casting, raw)
+                        && bytemuck::bytes_of(&r.camera) == bytemuck::bytes_of(&surface.camera)
+                });
             if first_stage {
                 s.held = Some(epoch);
                 s.staged = Some(Staged { key: key.clone(), camera: surface.camera, raw });
@@ -939,6 +948,7 @@ impl Shadows {
                 costs: &self.costs,
                 region,
                 turn: false,
+                kept,
             };
             let technique: &mut dyn ShadowTechnique = match shown {
                 Some(r) => s.rungs[r].technique.as_mut(),
@@ -997,6 +1007,7 @@ impl Shadows {
                 costs: &self.costs,
                 region: None,
                 turn: false,
+                kept: false,
             };
             let outs: Vec<&VisibilityLayer> = self.lights.iter().map(|s| &s.layer).collect();
             self.temporary.run(&mut ctx, shadowed, &outs);

@@ -87,6 +87,11 @@ pub struct FrameContext<'a> {
     /// budget is spent on it): what its new state cannot be shown without is charged to the
     /// budget, not asked of it ([`FrameContext::take_needed_units`]).
     pub turn: bool,
+    /// For `resolve`: the layer it writes holds this technique's last resolve over the same
+    /// surface, light and instances, from the same camera; only what its `prepare`s changed since
+    /// differs. A technique may keep what they did not change (`lightmaps`: the pixels off its
+    /// receivers, when only the light maps changed).
+    pub kept: bool,
 }
 
 /// The part of a layer a resolve has to redo ([`FrameContext::region`]).

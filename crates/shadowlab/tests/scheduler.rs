@@ -274,6 +274,9 @@ fn frames_that_only_accumulate_out_of_sight_resolve_nothing() {
         }
     }
     assert!(quiet >= 2 && shows >= 1, "{quiet} frames only accumulated, {shows} showed a rung");
+    // A rung shown changes the light maps alone: the pixels off the receivers (`volumes`') are kept.
+    let kept: f64 = r.shadows.stats().extra.iter().filter(|(k, _)| k.ends_with("rest_kept")).map(|(_, v)| v).sum();
+    assert!(kept >= f64::from(shows), "{kept} resolves kept the rest's pixels, {shows} rungs shown");
     // Each face is drawn once (each show drew all six again before they were kept).
     assert!(faces <= 6, "{faces} faces of the whole scene drawn for a six-face cube");
     assert!(first_light_equals_fresh(&r), "the refilled light maps equal a fresh engine's");

@@ -114,6 +114,9 @@ fn compose(
         draws: 0,
         version: 0,
         changed_itself: true,
+        rest_stale: true,
+        resolved_patches: None,
+        rest_kept: 0,
         rest_version: None,
         looks: 0,
     }))
@@ -165,6 +168,11 @@ struct Lightmaps {
     version: u64,
     /// Whether the last `prepare` changed what the light maps show (not only `rest`).
     changed_itself: bool,
+    /// Whether `rest` showed something new since the last `resolve`, and the patches then.
+    rest_stale: bool,
+    resolved_patches: Option<Vec<Patch>>,
+    /// Resolves that kept `rest`'s pixels (`stats`: `rest_kept`).
+    rest_kept: u32,
     /// `rest`'s own version when it tracks one.
     rest_version: Option<u64>,
     /// A hash of what the lookup reads besides the layers (the patches, which are shown).
@@ -714,6 +722,7 @@ impl ShadowTechnique for Lightmaps {
         };
         if rest_changed {
             self.version += 1;
+            self.rest_stale = true;
         }
         let by_rest = self.version;
         let samples = self.emitter_samples(ctx.light);
@@ -988,12 +997,23 @@ impl ShadowTechnique for Lightmaps {
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
+        let patches = self.state.as_ref().map(|s| s.patches.clone());
+        // `rest` wrote the pixels off the patches last time: while it shows what it showed then,
+        // over the same patches, surface and camera (`ctx.kept`), they hold (a light map's refill
+        // shown mid-drag then costs its lookup alone, not `volumes` again).
+        let keep_rest = ctx.kept && !self.rest_stale && patches.is_some() && self.resolved_patches == patches;
+        self.rest_stale = false;
+        self.resolved_patches = patches;
         let Some(state) = self.state.as_ref().filter(|s| !s.patches.is_empty() && s.maps_shown()) else {
             self.rest.resolve(ctx, out);
             return;
         };
         // The lookup below overwrites every pixel on a filled patch.
-        self.rest.resolve(ctx, out);
+        if keep_rest {
+            self.rest_kept += 1;
+        } else {
+            self.rest.resolve(ctx, out);
+        }
         let group0 = ctx.resolve_group(out);
         dispatch_resolve_in(ctx, "light maps", &self.lookup, &[&group0, &state.group]);
     }
@@ -1061,6 +1081,7 @@ impl ShadowTechnique for Lightmaps {
             extra.push(("light_maps_filled".into(), f64::from(self.filled)));
         }
         extra.push((format!("rest_{}", self.rest.id()), 1.0));
+        extra.push(("rest_kept".into(), f64::from(self.rest_kept)));
         TechniqueStats {
             memory_bytes: rest.memory_bytes + self.state.as_ref().map_or(0, |s| s.bytes),
             passes: rest.passes + 1,

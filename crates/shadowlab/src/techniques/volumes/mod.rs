@@ -149,8 +149,9 @@ pub(crate) struct Volumes {
     /// How the last resolve counted ([`counting_key`]): a region resolved under other methods
     /// would not match the pixels kept around it.
     resolved_counting: Option<u64>,
-    /// What the last `prepare` filled, when only objects' volumes ([`ShadowTechnique::filled_only`]).
-    filled_only: Option<Vec<InstanceId>>,
+    /// When the last `prepare` filled objects' volumes alone, how many (the store's `extracted`;
+    /// [`ShadowTechnique::filled_only`]).
+    filled_volumes: Option<u32>,
     frames: u64,
     stats: VolumeStats,
 }
@@ -304,7 +305,7 @@ impl Volumes {
             masked: None,
             plans: Vec::new(),
             resolved_counting: None,
-            filled_only: None,
+            filled_volumes: None,
             frames: 0,
             stats: VolumeStats::default(),
         })
@@ -1334,16 +1335,16 @@ impl ShadowTechnique for Volumes {
         // Only objects' volumes filled (the other fills are the receivers' maps): those objects'.
         let extracted = ctx.cache.work.volume_objects - objects;
         let others = ctx.cache.work.fills().iter().zip(fills).map(|(a, b)| a - b).sum::<u32>() - extracted;
-        self.filled_only = match (&self.store, prepared.is_ok() && others == 0) {
-            (Some(store), true) => Some(store.extracted.clone()),
-            (None, true) if extracted == 0 => Some(Vec::new()),
-            _ => None,
-        };
+        self.filled_volumes = (prepared.is_ok() && others == 0).then_some(extracted);
         prepared
     }
 
     fn filled_only(&self) -> Option<&[InstanceId]> {
-        self.filled_only.as_deref()
+        match (self.filled_volumes, &self.store) {
+            (Some(0), _) => Some(&[]),
+            (Some(_), Some(store)) => Some(&store.extracted),
+            _ => None,
+        }
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {

@@ -640,6 +640,9 @@ range = 4.0
         for key in ["index", "gpu_ms", "cpu_ms", "events", "work", "cache_bytes"] {
             assert!(f.get(key).is_some(), "frame lacks '{key}': {f}");
         }
+        // Recording is part of the frame's wall clock.
+        let (record, cpu) = (f["record_ms"].as_f64().unwrap(), f["cpu_ms"].as_f64().unwrap());
+        assert!(record > 0.0 && record <= cpu, "record_ms within cpu_ms: {f}");
         for key in ["map_views", "composite_views", "lightmap_samples", "volume_objects", "temporary_views", "reused"] {
             work(f, key);
         }
@@ -647,6 +650,8 @@ range = 4.0
     }
     for key in
         ["median_still_ms", "max_drag_ms", "median_drag_ms", "max_frame_ms", "cache_bytes_first", "cache_bytes_last"]
+            .into_iter()
+            .chain(["median_still_record_ms", "median_drag_record_ms", "max_drag_step_record_ms"])
     {
         assert!(t["summary"][key].is_number(), "summary.{key}: {}", t["summary"]);
     }

@@ -66,6 +66,22 @@ impl ConvexBody {
 
     /// Keeps the part on the positive side of `plane`, closing the cut with a new face.
     pub fn clip(&self, plane: &Plane) -> Self {
+        // Wholly on one side (the common case when a body is tested against many planes): the
+        // body itself, or nothing, as the cut below would give, without its allocations.
+        let (mut inside, mut outside) = (false, false);
+        for p in self.points() {
+            if plane.distance(p) >= 0.0 {
+                inside = true;
+            } else {
+                outside = true;
+            }
+        }
+        if !outside {
+            return Self { faces: self.faces.iter().filter(|f| f.len() >= 3).cloned().collect() };
+        }
+        if !inside {
+            return Self::default();
+        }
         let mut faces = Vec::with_capacity(self.faces.len() + 1);
         let mut cut: Vec<Vec3> = Vec::new();
         for face in &self.faces {
@@ -92,7 +108,7 @@ impl ConvexBody {
             let (u, v) = crate::sampling::orthonormal_basis(plane.n.normalize());
             cut.sort_by(|a, b| {
                 let (pa, pb) = (*a - centre, *b - centre);
-                pa.dot(v).atan2(pa.dot(u)).total_cmp(&pb.dot(v).atan2(pb.dot(u)))
+                pseudo_angle(pa.dot(u), pa.dot(v)).total_cmp(&pseudo_angle(pb.dot(u), pb.dot(v)))
             });
             cut.dedup_by(|a, b| a.distance_squared(*b) < 1e-12);
             if cut.len() >= 3 {
@@ -119,14 +135,38 @@ impl ConvexBody {
     /// plane at z = w; no far plane): its four sides widened by `widen` × w and its near plane
     /// moved `near_margin` × w towards the eye, so that round-off never cuts what it sees.
     pub fn clip_to_view(&self, clip_from: &Mat4, widen: f32, near_margin: f32) -> Self {
-        let m = clip_from.transpose();
-        let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
-        let wide = w * (1.0 + widen);
-        let near = w * (1.0 + near_margin) - z;
-        [wide + x, wide - x, wide + y, wide - y, near].iter().fold(self.clone(), |body, row| {
-            if body.is_empty() { body } else { body.clip(&Plane { n: row.truncate(), d: row.w }) }
-        })
+        view_planes(clip_from, widen, near_margin)
+            .iter()
+            .fold(self.clone(), |body, plane| if body.is_empty() { body } else { body.clip(plane) })
     }
+}
+
+/// A number that grows with the angle of `(x, y)` from the +x axis as `atan2(y, x)` does, in
+/// (−2, 2], without its cost (clipping sorts every cut by it).
+fn pseudo_angle(x: f32, y: f32) -> f32 {
+    let p = x / (x.abs() + y.abs());
+    if !p.is_finite() {
+        // The centre itself: atan2(0, 0) is 0, as for the +x axis.
+        return 0.0;
+    }
+    if y < 0.0 { p - 1.0 } else { 1.0 - p }
+}
+
+/// The planes [`ConvexBody::clip_to_view`] cuts by, keeping their positive sides.
+fn view_planes(clip_from: &Mat4, widen: f32, near_margin: f32) -> [Plane; 5] {
+    let m = clip_from.transpose();
+    let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
+    let wide = w * (1.0 + widen);
+    let near = w * (1.0 + near_margin) - z;
+    [wide + x, wide - x, wide + y, wide - y, near].map(|row| Plane { n: row.truncate(), d: row.w })
+}
+
+/// Whether a box wholly outside one of [`ConvexBody::clip_to_view`]'s planes, so that the box's
+/// body clipped to the view is empty (tested on its corners, as the clip does), without building
+/// the body: a caller testing many boxes against a view skips most of them here.
+pub fn box_misses_view(b: &Aabb, clip_from: &Mat4, widen: f32, near_margin: f32) -> bool {
+    let corners = b.corners();
+    view_planes(clip_from, widen, near_margin).iter().any(|plane| corners.iter().all(|&c| plane.distance(c) < 0.0))
 }
 
 /// The point where the ray from `p` (inside `b`) along `dir` leaves the box.
@@ -176,6 +216,47 @@ mod tests {
         assert!(behind.clip_to_view(&Mat4::IDENTITY, 0.0, 0.0).is_empty());
     }
     use crate::camera::View;
+
+    /// `pseudo_angle` orders directions as `atan2` does (the cut faces' order), and a box said to
+    /// miss a view clips to nothing there, while one that reaches it is not said to miss: checked
+    /// on random directions, boxes and perspective views.
+    #[test]
+    fn the_cheap_tests_agree_with_what_they_stand_for() {
+        let mut seed = 7u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut directions: Vec<(f32, f32)> = (0..500).map(|_| (next(), next())).collect();
+        directions.extend([(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0), (-1.0, 1e-7), (-1.0, -1e-7)]);
+        for &(x0, y0) in &directions {
+            for &(x1, y1) in &directions {
+                let (a, b) = (y0.atan2(x0), y1.atan2(x1));
+                if (a - b).abs() > 1e-5 {
+                    assert_eq!(a < b, pseudo_angle(x0, y0) < pseudo_angle(x1, y1), "({x0}, {y0}) and ({x1}, {y1})");
+                }
+            }
+        }
+        let (mut missed, mut met) = (0, 0);
+        for _ in 0..200 {
+            let eye = Vec3::new(next(), next(), next()) * 2.0;
+            let target = Vec3::new(next(), next(), next());
+            let view = crate::lightspace::perspective_reversed(0.3 + next().abs(), 1.0, 0.1, 10.0)
+                * crate::lightspace::look_along(eye, (target - eye).normalize_or(Vec3::Z));
+            let c = Vec3::new(next(), next(), next()) * 4.0;
+            let e = Vec3::new(next().abs(), next().abs(), next().abs()) * 0.5 + Vec3::splat(0.01);
+            let b = Aabb::new(c - e, c + e);
+            let clipped = ConvexBody::from_aabb(&b).clip_to_view(&view, 0.05, 1e-4);
+            if box_misses_view(&b, &view, 0.05, 1e-4) {
+                missed += 1;
+                assert!(clipped.is_empty(), "{b:?} is said to miss the view but clips to {clipped:?}");
+            } else if !clipped.is_empty() {
+                met += 1;
+            }
+        }
+        // Both cases occur (measured 160 missed and 39 met of 200 with this seed; at least 20 each).
+        assert!(missed >= 20 && met >= 20, "{missed} missed, {met} met");
+    }
 
     fn inside_convex_hull_of_box(p: Vec3, b: &Aabb) -> bool {
         let e = 1e-3;

@@ -49,7 +49,9 @@ impl Patch {
 }
 
 /// Whether an instance receives light maps: its role says it is a receiver, or its mesh is flat
-/// (one plane) and at least `min_area` large.
+/// (one plane) and at least `min_area` large. Decided without the instance's translation (about
+/// its own origin), so that moving an instance never changes it ([`PatchCache`] keeps it through
+/// a drag).
 pub fn is_receiver(scene: &Scene, inst: &Instance, min_area: f32) -> bool {
     if !inst.receives_shadows {
         return false;
@@ -57,12 +59,13 @@ pub fn is_receiver(scene: &Scene, inst: &Instance, min_area: f32) -> bool {
     if inst.role == Some(Role::Receiver) {
         return true;
     }
-    let patches = instance_patches(scene, inst, 0, 0.0);
+    let about_origin = glam::Affine3A { matrix3: inst.transform.matrix3, translation: glam::Vec3A::ZERO };
+    let patches = patches_under(scene, inst, &about_origin, 0, 0.0);
     patches.len() == 1 && patches[0].area >= min_area && {
         let mesh = scene.mesh(inst.mesh);
         let total: f32 = (0..mesh.triangle_count())
             .map(|t| {
-                let [a, b, c] = mesh.corners(t).map(|p| inst.transform.transform_point3(p));
+                let [a, b, c] = mesh.corners(t).map(|p| about_origin.transform_point3(p));
                 0.5 * (b - a).cross(c - a).length()
             })
             .sum();
@@ -88,9 +91,10 @@ pub fn planar_patches(scene: &Scene, min_area: f32) -> Vec<Patch> {
 #[derive(Debug, Clone, Default)]
 pub struct PatchCache {
     min_area: f32,
-    /// Per instance index: what the patches were found for, and the patches (`instance` fields
-    /// are rewritten on the way out, so an index shift after a removal only costs a recompute).
-    entries: Vec<Option<(PatchKey, Vec<Patch>)>>,
+    /// Per instance index: what the patches were found for, whether it is a receiver, and the
+    /// patches (`instance` fields are rewritten on the way out, so an index shift after a removal
+    /// only costs a recompute).
+    entries: Vec<Option<(PatchKey, bool, Vec<Patch>)>>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -118,15 +122,22 @@ impl PatchCache {
                 receives_shadows: inst.receives_shadows,
             };
             let entry = &mut self.entries[i];
-            if entry.as_ref().is_none_or(|(k, _)| *k != key) {
-                let patches = if is_receiver(scene, inst, min_area) {
-                    instance_patches(scene, inst, i, min_area)
-                } else {
-                    Vec::new()
+            if entry.as_ref().is_none_or(|(k, _, _)| *k != key) {
+                // A move alone (a drag step) keeps whether it is a receiver: a dragged chair,
+                // which is none, costs nothing here.
+                let receiver = match entry {
+                    Some((k, receiver, _))
+                        if (k.mesh, k.transform.matrix3, k.role, k.receives_shadows)
+                            == (key.mesh, key.transform.matrix3, key.role, key.receives_shadows) =>
+                    {
+                        *receiver
+                    }
+                    _ => is_receiver(scene, inst, min_area),
                 };
-                *entry = Some((key, patches));
+                let patches = if receiver { instance_patches(scene, inst, i, min_area) } else { Vec::new() };
+                *entry = Some((key, receiver, patches));
             }
-            let (_, patches) = entry.as_ref().expect("filled above");
+            let (_, _, patches) = entry.as_ref().expect("filled above");
             out.extend(patches.iter().map(|p| Patch { instance: i, ..*p }));
         }
         out
@@ -135,8 +146,19 @@ impl PatchCache {
 
 /// The planes of one instance with at least `min_area` of triangles.
 pub fn instance_patches(scene: &Scene, inst: &Instance, index: usize, min_area: f32) -> Vec<Patch> {
+    patches_under(scene, inst, &inst.transform, index, min_area)
+}
+
+/// [`instance_patches`] with the instance's mesh placed by `transform`.
+fn patches_under(
+    scene: &Scene,
+    inst: &Instance,
+    transform: &glam::Affine3A,
+    index: usize,
+    min_area: f32,
+) -> Vec<Patch> {
     let Some(mesh) = scene.meshes.get(inst.mesh.index()) else { return Vec::new() };
-    let bounds = mesh.bounds().transformed(&inst.transform);
+    let bounds = mesh.bounds().transformed(transform);
     let tolerance = 1e-5 * bounds.diagonal().max(1e-3);
     struct Group {
         normal: Vec3,
@@ -149,14 +171,14 @@ pub fn instance_patches(scene: &Scene, inst: &Instance, index: usize, min_area: 
     let mut groups: Vec<Group> = Vec::new();
     let mut planes: std::collections::HashMap<(i32, i32, i32, i64), usize> = std::collections::HashMap::new();
     for t in 0..mesh.triangle_count() {
-        let [a, b, c] = mesh.corners(t).map(|p| inst.transform.transform_point3(p));
+        let [a, b, c] = mesh.corners(t).map(|p| transform.transform_point3(p));
         let cross = (b - a).cross(c - a);
         let area = 0.5 * cross.length();
         if area.is_nan() || area <= 0.0 || !area.is_finite() {
             continue;
         }
         let mut normal = cross.normalize();
-        if inst.transform.matrix3.determinant() < 0.0 {
+        if transform.matrix3.determinant() < 0.0 {
             normal = -normal;
         }
         let offset = normal.dot(a);
@@ -251,6 +273,34 @@ mod tests {
         let before = cache.entries.clone();
         let _ = cache.patches(&scene, 0.25);
         assert_eq!(format!("{:?}", cache.entries), format!("{before:?}"));
+    }
+
+    /// A move keeps whether an instance is a receiver (a drag step decides nothing again), and
+    /// what changes it is still seen: a tile scaled past the minimum area becomes one, and one
+    /// moved far from the origin stays one.
+    #[test]
+    fn only_a_change_of_shape_decides_again_whether_an_instance_receives() {
+        let mut s = Scene::new("t");
+        let tile = s.add_mesh(primitives::plane(0.5, 0.5, 1, 1));
+        let mat = s.add_material(Material::default());
+        s.add_instance(Instance::new("tile", tile, mat, Affine3A::IDENTITY));
+        let ball = s.add_mesh(primitives::sphere(1.0, 16, 8));
+        s.add_instance(Instance::new("ball", ball, mat, Affine3A::IDENTITY));
+        let mut cache = PatchCache::default();
+        let mut check = |s: &Scene, receivers: usize, what: &str| {
+            let patches = cache.patches(s, 1.0);
+            assert_eq!(patches, planar_patches(s, 1.0), "after {what}");
+            assert_eq!(patches.len(), receivers, "after {what}: {patches:?}");
+        };
+        check(&s, 0, "the first call (0.25 m² is too small, a ball is not flat)");
+        s.instances[1].transform = Affine3A::from_translation(Vec3::new(2.0, 0.0, 1.0));
+        check(&s, 0, "moving the ball");
+        s.instances[0].transform = Affine3A::from_scale(Vec3::new(3.0, 1.0, 3.0));
+        check(&s, 1, "scaling the tile to 2.25 m²");
+        s.instances[0].transform = Affine3A::from_translation(Vec3::new(1e4, 3.0, -2e4)) * s.instances[0].transform;
+        check(&s, 1, "moving the tile 22 km away");
+        s.instances[0].transform = Affine3A::from_translation(Vec3::new(1e4, 3.0, -2e4));
+        check(&s, 0, "scaling it back");
     }
 
     #[test]

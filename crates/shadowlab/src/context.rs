@@ -187,6 +187,17 @@ impl Shared {
         cache.entry(key.to_owned()).or_insert_with(make).clone()
     }
 
+    /// The keys of every pipeline compiled so far, sorted (what a frame compiled shows as new keys).
+    pub fn pipeline_keys(&self) -> Vec<String> {
+        let render =
+            self.render_pipelines.lock().unwrap_or_else(|e| e.into_inner()).keys().cloned().collect::<Vec<_>>();
+        let compute =
+            self.compute_pipelines.lock().unwrap_or_else(|e| e.into_inner()).keys().cloned().collect::<Vec<_>>();
+        let mut keys: Vec<String> = render.into_iter().chain(compute).collect();
+        keys.sort();
+        keys
+    }
+
     pub fn layout(&self, key: &str, make: impl FnOnce() -> wgpu::BindGroupLayout) -> wgpu::BindGroupLayout {
         let mut cache = self.layouts.lock().unwrap_or_else(|e| e.into_inner());
         cache.entry(key.to_owned()).or_insert_with(make).clone()

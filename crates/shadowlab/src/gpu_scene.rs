@@ -91,6 +91,9 @@ pub struct GpuScene {
     pub meshes: Vec<MeshRange>,
     /// Whether each mesh is closed (culling of its draw group).
     closed: Vec<bool>,
+    /// Per mesh, its box in its own space (meshes never change after the upload; the scene's
+    /// bounds are taken again after every edit).
+    mesh_bounds: Vec<Aabb>,
     /// All groups; those with `casts_shadows` are the shadow casters.
     pub groups: Vec<DrawGroup>,
     /// The instance-buffer slot of each scene instance (by index in `Scene::instances`).
@@ -161,6 +164,7 @@ impl GpuScene {
             instances,
             meshes,
             closed,
+            mesh_bounds: scene.meshes.iter().map(|m| m.bounds()).collect(),
             groups: Vec::new(),
             slots: Vec::new(),
             bounds: Aabb::EMPTY,
@@ -208,10 +212,9 @@ impl GpuScene {
 
     fn refresh_counts(&mut self, scene: &Scene) {
         let permanent = |i: &shadowlab_core::Instance| i.mobility != Mobility::Temporary;
-        let mesh_bounds: Vec<Aabb> = scene.meshes.iter().map(|m| m.bounds()).collect();
         let (mut all, mut casters) = (Aabb::EMPTY, Aabb::EMPTY);
         for i in scene.instances.iter().filter(|i| permanent(i)) {
-            let b = mesh_bounds.get(i.mesh.index()).map_or(Aabb::EMPTY, |b| b.transformed(&i.transform));
+            let b = self.mesh_bounds.get(i.mesh.index()).map_or(Aabb::EMPTY, |b| b.transformed(&i.transform));
             all = all.union(&b);
             if i.casts_shadows {
                 casters = casters.union(&b);

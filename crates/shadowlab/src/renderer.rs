@@ -43,6 +43,9 @@ pub struct FrameReport {
     pub gpu: Option<FrameTimes>,
     /// Wall-clock milliseconds from recording to the GPU being done (includes CPU recording).
     pub cpu_ms: f64,
+    /// Wall-clock milliseconds of recording and submitting the frame, before waiting for the GPU:
+    /// the CPU's own part, which a fast GPU does not hide (a drag step's silhouettes and lists).
+    pub record_ms: f64,
     /// What the shadows re-rendered this frame.
     pub work: Work,
 }
@@ -216,6 +219,7 @@ impl Renderer {
     #[cfg(not(target_arch = "wasm32"))]
     pub fn render(&mut self) -> Result<FrameReport, TechniqueError> {
         let (work, start) = self.record_frame()?;
+        let record_ms = start.elapsed().as_secs_f64() * 1e3;
         self.gpu.wait();
         if let Some(e) = self.gpu.take_error() {
             return Err(TechniqueError::Failed { id: "frame".into(), message: format!("GPU error: {e}") });
@@ -233,7 +237,7 @@ impl Renderer {
             }
             None => self.shadows.observe_measured(&work, f64::NAN, cpu_ms),
         }
-        Ok(FrameReport { gpu, cpu_ms, work })
+        Ok(FrameReport { gpu, cpu_ms, record_ms, work })
     }
 
     /// Shadows `light` with a quality ladder (see [`Shadows::set_ladder`]).

@@ -511,7 +511,7 @@ pub(crate) fn matrices_layout(shared: &Shared) -> wgpu::BindGroupLayout {
 /// The depth pass's pipeline for casters culled by `cull`, wound `mirrored`, rasterised by
 /// `raster`; `masked`: alpha-masked casters, whose fragment stage drops the mask's holes
 /// (`shaders/alpha_mask.wgsl`, group 1).
-fn depth_pipeline(
+pub(crate) fn depth_pipeline(
     shared: &Shared,
     cull: Option<wgpu::Face>,
     mirrored: bool,

@@ -183,6 +183,7 @@ impl Shadows {
         let shared = Shared::new(gpu);
         let gpu_scene = GpuScene::new(&gpu.device, &gpu.queue, &scene);
         let temporary = TemporaryShadows::new(&shared);
+        TemporaryShadows::warm(&shared);
         Self {
             shared,
             live: LiveScene::new(scene),

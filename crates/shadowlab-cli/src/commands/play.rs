@@ -139,6 +139,7 @@ pub struct Args {
 struct FrameRecord {
     gpu_ms: Option<f64>,
     cpu_ms: f64,
+    record_ms: f64,
     /// The shadow passes' GPU time (the fills), without timestamps `None`.
     work_ms: Option<f64>,
     work: shadowlab::Work,
@@ -391,6 +392,7 @@ fn play_once(
         records.push(FrameRecord {
             gpu_ms: report.gpu.as_ref().map(|t| t.total()),
             cpu_ms: report.cpu_ms,
+            record_ms: report.record_ms,
             work_ms: report.gpu.as_ref().map(|t| t.get(PassKind::Shadow)),
             work: report.work,
             cache_bytes: r.shadows.memory_bytes(),
@@ -596,6 +598,7 @@ fn document(
                 "index": i,
                 "gpu_ms": r.gpu_ms,
                 "cpu_ms": r.cpu_ms,
+                "record_ms": r.record_ms,
                 "frame_ms": finite(times[i]),
                 "frame_ms_least": runs.map(|r| finite(r.least[i])),
                 "events": fp.events,
@@ -632,6 +635,19 @@ fn document(
     let step_ms = pick(&stepping);
     let opt = |v: &[f64], f: fn(Vec<f64>) -> f64| if v.is_empty() { Value::Null } else { finite(f(v.to_vec())) };
     let max = |v: Vec<f64>| v.into_iter().fold(f64::NEG_INFINITY, f64::max);
+    let record = |keep: &dyn Fn(usize) -> bool| -> Vec<f64> {
+        records
+            .iter()
+            .enumerate()
+            .filter(|&(i, r)| keep(i) && r.record_ms.is_finite())
+            .map(|(_, r)| r.record_ms)
+            .collect()
+    };
+    let record_ms = [
+        opt(&record(&|i| still[i]), median),
+        opt(&record(&|i| plan.frames[i].dragging), median),
+        opt(&record(&stepping), max),
+    ];
     let rmse = |s: &ErrorStats| if s.pixels == 0 { Value::Null } else { finite(s.rmse()) };
     // Every light shows the current state at frame `f` (with a target, a light may show an older
     // one while its fill is spread over frames: the fresh engine differs there by design).
@@ -671,7 +687,7 @@ fn document(
             "max_frame_ms": opt(&least(&|_| true), max),
         })
     });
-    json!({
+    let mut out = json!({
         "scene": setup.scene.name,
         "timeline": name,
         "techniques": specs.iter().map(|s| s.label().to_owned()).collect::<Vec<_>>(),
@@ -716,7 +732,16 @@ fn document(
             "frames_over_target": target_ms.map(over),
             "least_over_runs": least_over_runs,
         },
-    })
+    });
+    // The CPU's part of the frames (one run), beside the frame times (the `json!` above is as deep
+    // as the macro goes).
+    let [still_record, drag_record, step_record] = record_ms;
+    if let Some(summary) = out.get_mut("summary").and_then(Value::as_object_mut) {
+        summary.insert("median_still_record_ms".into(), still_record);
+        summary.insert("median_drag_record_ms".into(), drag_record);
+        summary.insert("max_drag_step_record_ms".into(), step_record);
+    }
+    out
 }
 
 /// For each stretch of the run from a frame with an event (the first frame's `start` included) to

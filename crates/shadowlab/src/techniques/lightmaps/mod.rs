@@ -1140,6 +1140,9 @@ fn fill_patch(
     let mut keep = vec![false; casters.iter().map(|c| c.0 as usize + 1).max().unwrap_or(0)];
     let (occluder, lit, shadowed) =
         (fill_pipeline(shared, "occluder"), fill_pipeline(shared, "lit"), fill_pipeline(shared, "shadowed"));
+    // Compiled with the others: a refill of part of a map (an edit's, often a drag's) needs it,
+    // and must not compile in that frame (`tests/live.rs`, `a_drag_compiles_no_pipeline`).
+    fill_pipeline(shared, "zero");
     let projections: Vec<Option<Mat4>> = samples.iter().map(|s| sample_projection(patch, &s.sample, reach)).collect();
     for (j, s) in samples.iter().enumerate() {
         let projection = projections[j];

@@ -23,6 +23,10 @@ pub(super) struct MeshRanges {
     /// at most the larger of the edge's forward and backward uses; two-sided ones ±1, so at most
     /// its uses). A closed one-sided mesh extrudes at most one quad per edge.
     pub quads: [u32; 2],
+    /// Whether the mesh is closed ([`Topology::report`] walks every edge: a caster list, made
+    /// again at every drag step, reads it here), and the box around all its positions.
+    pub closed: bool,
+    pub bounds: shadowlab_core::Aabb,
 }
 
 /// The welded topology of every mesh of the scene, on the GPU and on the CPU (the CPU copy counts
@@ -84,6 +88,8 @@ impl VolumeTopology {
                 first_edge: edges.len() as u32,
                 edges: topo.edges.len() as u32,
                 quads,
+                closed: topo.report().is_closed(),
+                bounds: shadowlab_core::Aabb::from_points(mesh.positions.iter().copied()),
             });
             positions.extend(topo.positions.iter().map(|p| p.extend(1.0)));
             triangles.extend(
@@ -154,11 +160,9 @@ impl Caster {
             .filter(|(i, _)| i.casts_shadows && i.mobility != shadowlab_core::Mobility::Temporary)
             .filter(|(i, _)| topology.meshes[i.mesh.index()].faces > 0)
             .map(|(i, state)| {
-                let mesh = scene.mesh(i.mesh);
-                let closed = topology.topologies[i.mesh.index()].report().is_closed();
-                let corners = shadowlab_core::Aabb::from_points(mesh.positions.iter().copied())
-                    .corners()
-                    .map(|c| i.transform.transform_point3(c));
+                let ranges = &topology.meshes[i.mesh.index()];
+                let closed = ranges.closed;
+                let corners = ranges.bounds.corners().map(|c| i.transform.transform_point3(c));
                 let bounds = shadowlab_core::Aabb::from_points(corners);
                 let centre = bounds.center();
                 let radius = corners.iter().map(|c| c.distance(centre)).fold(0.0, f32::max) * 1.0001 + 1e-6;

@@ -135,9 +135,13 @@ impl ConvexBody {
     /// plane at z = w; no far plane): its four sides widened by `widen` × w and its near plane
     /// moved `near_margin` × w towards the eye, so that round-off never cuts what it sees.
     pub fn clip_to_view(&self, clip_from: &Mat4, widen: f32, near_margin: f32) -> Self {
-        view_planes(clip_from, widen, near_margin)
-            .iter()
-            .fold(self.clone(), |body, plane| if body.is_empty() { body } else { body.clip(plane) })
+        let planes = view_planes(clip_from, widen, near_margin);
+        // Wholly in view: no plane cuts, and the clips below would each copy the body (dropping
+        // faces of fewer than three points).
+        if self.points().all(|p| planes.iter().all(|plane| plane.distance(p) >= 0.0)) {
+            return Self { faces: self.faces.iter().filter(|f| f.len() >= 3).cloned().collect() };
+        }
+        planes.iter().fold(self.clone(), |body, plane| if body.is_empty() { body } else { body.clip(plane) })
     }
 }
 
@@ -153,7 +157,7 @@ fn pseudo_angle(x: f32, y: f32) -> f32 {
 }
 
 /// The planes [`ConvexBody::clip_to_view`] cuts by, keeping their positive sides.
-fn view_planes(clip_from: &Mat4, widen: f32, near_margin: f32) -> [Plane; 5] {
+pub fn view_planes(clip_from: &Mat4, widen: f32, near_margin: f32) -> [Plane; 5] {
     let m = clip_from.transpose();
     let (x, y, z, w) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
     let wide = w * (1.0 + widen);

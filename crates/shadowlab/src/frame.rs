@@ -97,11 +97,20 @@ impl CameraUniform {
     /// projected (a point at the eye's plane, or not finite): anywhere.
     pub fn pixels_of_body(&self, body: &ConvexBody) -> Option<Vec<glam::Vec2>> {
         let eye = self.position.truncate();
-        let rel = ConvexBody { faces: body.faces.iter().map(|f| f.iter().map(|&p| p - eye).collect()).collect() };
         let to_clip = self.inv_view_proj_rel.inverse();
-        let seen = rel.clip_to_view(&to_clip, 0.01, 0.01);
+        let (widen, near) = (0.01, 0.01);
+        // Wholly in view (most bodies a drag step projects): the clip would keep every point of
+        // every face (faces of fewer than three points are dropped by it), so take them as they are.
+        let planes = shadowlab_core::convex::view_planes(&to_clip, widen, near);
+        let faces = || body.faces.iter().filter(|f| f.len() >= 3).flatten();
+        let seen: Vec<Vec3> = if faces().all(|&p| planes.iter().all(|plane| plane.distance(p - eye) >= 0.0)) {
+            faces().map(|&p| p - eye).collect()
+        } else {
+            let rel = ConvexBody { faces: body.faces.iter().map(|f| f.iter().map(|&p| p - eye).collect()).collect() };
+            rel.clip_to_view(&to_clip, widen, near).points().collect()
+        };
         let (w, h) = (self.size.x.max(0.0), self.size.y.max(0.0));
-        seen.points()
+        seen.into_iter()
             .map(|p| {
                 let clip = to_clip * p.extend(1.0);
                 let ahead = clip.w > 1e-6 * clip.truncate().length().max(1.0);

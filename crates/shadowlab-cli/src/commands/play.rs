@@ -965,6 +965,12 @@ fn print_summary(doc: &Value) {
         mib(&s["cache_bytes_first"]),
         mib(&s["cache_bytes_last"]),
     );
+    println!(
+        "recording (CPU ms before the GPU's part): median still {}, median drag {}, max drag step {}",
+        fmt(&s["median_still_record_ms"], 2),
+        fmt(&s["median_drag_record_ms"], 2),
+        fmt(&s["max_drag_step_record_ms"], 2),
+    );
     let least = &s["least_over_runs"];
     if least.is_object() {
         println!(
@@ -1020,6 +1026,7 @@ fn report_html(doc: &Value, svg: &str) -> String {
             "median drag ms",
             "max drag ms",
             "max frame ms",
+            "median drag recording ms",
             "map views (all frames)",
             "cache MiB first",
             "cache MiB last",
@@ -1032,6 +1039,7 @@ fn report_html(doc: &Value, svg: &str) -> String {
             fmt(&s["median_drag_ms"], 2),
             fmt(&s["max_drag_ms"], 2),
             fmt(&s["max_frame_ms"], 2),
+            fmt(&s["median_drag_record_ms"], 2),
             s["map_views_total"].to_string(),
             mib(&s["cache_bytes_first"]),
             mib(&s["cache_bytes_last"]),

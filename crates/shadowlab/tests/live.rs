@@ -79,6 +79,17 @@ impl Live {
         self.renderer.apply(Edit::AddInstance(Box::new(instance))).unwrap()
     }
 
+    /// Sets an instance's mobility (a pick-up: `Temporary`; a release: any other).
+    fn set_mobility(&mut self, instance: InstanceId, mobility: Mobility) {
+        self.renderer.apply(Edit::Mobility { instance, mobility }).unwrap();
+    }
+
+    /// Moves an instance by `by` from where it stands.
+    fn move_by(&mut self, instance: InstanceId, by: Vec3) {
+        let t = transform_of(self, instance);
+        self.renderer.apply(Edit::Transform { instance, transform: moved(t, by) }).unwrap();
+    }
+
     /// Moves the first light by `by`.
     fn move_first_light(&mut self, by: Vec3) {
         let lamp = self.renderer.scene().lights[0].position().unwrap();
@@ -150,10 +161,7 @@ fn every_edit_leaves_the_live_engine_equal_to_a_fresh_one() {
         assert!(!keeps_everything || !still.rebuilt_anything(), "{spec}: a still frame re-renders {still:?}");
 
         let chair = live.id("chair north-west");
-        let t = transform_of(&live, chair);
-        live.renderer
-            .apply(Edit::Transform { instance: chair, transform: moved(t, Vec3::new(0.2, 0.0, 0.1)) })
-            .unwrap();
+        live.move_by(chair, Vec3::new(0.2, 0.0, 0.1));
         live.check("static chair moved");
 
         let dynamic = live.id("chair east");
@@ -162,24 +170,21 @@ fn every_edit_leaves_the_live_engine_equal_to_a_fresh_one() {
         live.renderer.apply(Edit::Transform { instance: dynamic, transform: turned }).unwrap();
         live.check("dynamic chair turned");
 
-        live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Dynamic }).unwrap();
+        live.set_mobility(chair, Mobility::Dynamic);
         live.check("static chair made dynamic");
-        live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
+        live.set_mobility(chair, Mobility::Static);
         live.check("and static again");
 
         // Dragging: temporary, moved over frames, released.
-        live.renderer.apply(Edit::Mobility { instance: dynamic, mobility: Mobility::Temporary }).unwrap();
+        live.set_mobility(dynamic, Mobility::Temporary);
         live.check("drag starts");
         for k in 1..=2 {
-            let t = transform_of(&live, dynamic);
-            live.renderer
-                .apply(Edit::Transform { instance: dynamic, transform: moved(t, Vec3::new(-0.15, 0.0, 0.1)) })
-                .unwrap();
+            live.move_by(dynamic, Vec3::new(-0.15, 0.0, 0.1));
             let w = live.check(&format!("dragged {k}"));
             assert!(!keeps_everything || w.map_views == 0, "{spec}: dragging re-renders {w:?}");
             assert!(w.temporary_views > 0, "{spec}: the dragged chair casts through its own pass");
         }
-        live.renderer.apply(Edit::Mobility { instance: dynamic, mobility: Mobility::Static }).unwrap();
+        live.set_mobility(dynamic, Mobility::Static);
         live.check("released");
 
         let added = live.add_copy("cup", Vec3::new(0.25, 0.0, 0.0));
@@ -257,8 +262,7 @@ fn volumes_re_extract_only_the_objects_and_lights_that_changed() {
     assert_eq!(still.reused, first.volume_objects, "every item is reused");
 
     let chair = live.id("chair north-west");
-    let t = transform_of(&live, chair);
-    live.renderer.apply(Edit::Transform { instance: chair, transform: moved(t, Vec3::new(0.2, 0.0, 0.1)) }).unwrap();
+    live.move_by(chair, Vec3::new(0.2, 0.0, 0.1));
     let w = live.check("static chair moved");
     // Exactly the chair, once per sample of every light.
     assert_eq!(w.volume_objects, all_samples, "moving one object extracts {w:?}");
@@ -309,7 +313,7 @@ fn a_drag_step_runs_only_the_dragged_objects_pass() {
         let mut live = Live::new(load_scene("room").unwrap().scene, spec);
         live.check("first frame");
         let chair = live.id("chair east");
-        live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+        live.set_mobility(chair, Mobility::Temporary);
         let lights = live.renderer.shadows.shadowed_lights().count() as u32;
         let w = live.check("picked up");
         assert_eq!(w.resolves, lights, "{spec}: a pick-up resolves every light over the permanent surface: {w:?}");
@@ -323,8 +327,7 @@ fn a_drag_step_runs_only_the_dragged_objects_pass() {
         for (k, by) in
             [Vec3::new(-0.7, 0.0, 0.3), Vec3::new(0.0, 0.0, -0.7), Vec3::new(0.6, 0.0, 0.2)].into_iter().enumerate()
         {
-            let t = transform_of(&live, chair);
-            live.renderer.apply(Edit::Transform { instance: chair, transform: moved(t, by) }).unwrap();
+            live.move_by(chair, by);
             let w = live.check(&format!("dragged {k}"));
             assert_eq!((w.resolves, w.region_resolves), (0, 0), "{spec}: step {k}: {w:?}");
             // Every light draws the chair's map at least (one view, or six around a lamp).
@@ -347,13 +350,10 @@ fn a_drag_step_runs_only_the_dragged_objects_pass() {
         assert_eq!((w.resolves, w.temporary_views), (0, 0), "{spec}: holding the chair still runs nothing: {w:?}");
         let view = live.renderer.scene().view("table").unwrap().clone();
         live.renderer.set_view(&view);
-        let t = transform_of(&live, chair);
-        live.renderer
-            .apply(Edit::Transform { instance: chair, transform: moved(t, Vec3::new(0.05, 0.0, 0.0)) })
-            .unwrap();
+        live.move_by(chair, Vec3::new(0.05, 0.0, 0.0));
         let w = live.check("camera moved while dragging");
         assert_eq!((w.resolves, w.region_resolves), (lights, 0), "{spec}: a camera move redoes every pixel: {w:?}");
-        live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Dynamic }).unwrap();
+        live.set_mobility(chair, Mobility::Dynamic);
         let w = live.check("released");
         // Each light's layer over the permanent surface is kept for the release, but seen from the
         // table the chair's shadow from every light may reach the whole screen: every pixel
@@ -373,11 +373,10 @@ fn a_drag_compiles_no_pipeline() {
         live.frame();
         let before = live.renderer.shadows.shared().pipeline_keys();
         let chair = live.id("chair east");
-        live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+        live.set_mobility(chair, Mobility::Temporary);
         live.frame();
         for by in [Vec3::new(-0.7, 0.0, 0.3), Vec3::new(0.0, 0.0, -0.7)] {
-            let t = transform_of(&live, chair);
-            live.renderer.apply(Edit::Transform { instance: chair, transform: moved(t, by) }).unwrap();
+            live.move_by(chair, by);
             let w = live.frame();
             assert!(w.temporary_views > 0, "{spec}: the chair casts through its pass: {w:?}");
         }
@@ -397,12 +396,11 @@ fn a_release_resolves_only_where_the_object_lands() {
     let mut live = Live::new(load_scene("room").unwrap().scene, "volumes");
     live.check("first frame");
     let chair = live.id("chair east");
-    live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    live.set_mobility(chair, Mobility::Temporary);
     let lights = live.renderer.shadows.shadowed_lights().count() as u32;
     live.check("picked up");
-    let t = transform_of(&live, chair);
-    live.renderer.apply(Edit::Transform { instance: chair, transform: moved(t, Vec3::new(-2.0, 0.0, -1.2)) }).unwrap();
-    live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Static }).unwrap();
+    live.move_by(chair, Vec3::new(-2.0, 0.0, -1.2));
+    live.set_mobility(chair, Mobility::Static);
     let w = live.check("released");
     assert_eq!((w.resolves, w.region_resolves, w.volume_objects), (lights, lights, lights), "{w:?}");
 }
@@ -421,7 +419,7 @@ fn a_pick_up_under_soft_volumes_redoes_the_whole_penumbra() {
     }
     live.check("first frame");
     let chair = live.id("chair east");
-    live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    live.set_mobility(chair, Mobility::Temporary);
     let lights = live.renderer.shadows.shadowed_lights().count() as u32;
     let w = live.check("picked up");
     assert_eq!((w.resolves, w.region_resolves), (lights, lights), "every light resolves its region: {w:?}");
@@ -467,7 +465,7 @@ fn a_light_moved_while_the_dragged_object_is_out_of_sight_redraws_its_maps() {
     let mut live = Live::new(load_scene("room").unwrap().scene, "hard:map_size=512");
     live.check("first frame");
     let chair = live.id("chair east");
-    live.renderer.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    live.set_mobility(chair, Mobility::Temporary);
     live.check("picked up");
     let start = transform_of(&live, chair);
     // Far below the floor, where neither the chair nor its shadow is seen.
@@ -494,7 +492,7 @@ fn every_edit_during_a_drag_leaves_the_live_engine_equal_to_a_fresh_one() {
         let mut live = Live::new(load_scene("room").unwrap().scene, spec);
         live.check("first frame");
         let dragged = live.id("chair east");
-        live.renderer.apply(Edit::Mobility { instance: dragged, mobility: Mobility::Temporary }).unwrap();
+        live.set_mobility(dragged, Mobility::Temporary);
         live.check("picked up");
         // A drag step after each edit: the object's pass must run over the edited state too.
         let step = |live: &mut Live, what: &str| {
@@ -534,10 +532,7 @@ fn every_edit_during_a_drag_leaves_the_live_engine_equal_to_a_fresh_one() {
         step(&mut live, "a light removed");
 
         let other = live.id("chair north-west");
-        let t = transform_of(&live, other);
-        live.renderer
-            .apply(Edit::Transform { instance: other, transform: moved(t, Vec3::new(0.2, 0.0, 0.1)) })
-            .unwrap();
+        live.move_by(other, Vec3::new(0.2, 0.0, 0.1));
         live.check("another chair moved");
         step(&mut live, "another chair moved");
 
@@ -549,10 +544,10 @@ fn every_edit_during_a_drag_leaves_the_live_engine_equal_to_a_fresh_one() {
         step(&mut live, "a cup removed");
 
         // A second object picked up while the first is held.
-        live.renderer.apply(Edit::Mobility { instance: other, mobility: Mobility::Temporary }).unwrap();
+        live.set_mobility(other, Mobility::Temporary);
         live.check("second object picked up");
         step(&mut live, "a second pick-up");
-        live.renderer.apply(Edit::Mobility { instance: other, mobility: Mobility::Static }).unwrap();
+        live.set_mobility(other, Mobility::Static);
         live.check("second object released");
         step(&mut live, "the second release");
 
@@ -577,7 +572,7 @@ fn every_edit_during_a_drag_leaves_the_live_engine_equal_to_a_fresh_one() {
         live.check("camera moved");
         step(&mut live, "a camera move");
 
-        live.renderer.apply(Edit::Mobility { instance: dragged, mobility: Mobility::Static }).unwrap();
+        live.set_mobility(dragged, Mobility::Static);
         live.check("released");
         println!("{spec}: ok");
     }

@@ -43,6 +43,10 @@ const MAX_RECEIVER_BOXES: usize = 256;
 const NORMAL_OFFSET: f32 = 0.3;
 const SLOPE_BIAS: f32 = 1.5;
 
+/// How the pass's maps (the dragged objects' and the whole scene's) are drawn: `hard`'s raster.
+const RASTER: Raster =
+    Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
+
 /// The permanent instances alone, seen by the application's camera, while objects are dragged:
 /// the surface the lights' techniques shadow then. Their layers depend on nothing a drag changes,
 /// so a drag step resolves nothing again (the dragged objects' pass alone runs); pixels that show
@@ -219,8 +223,6 @@ impl TemporaryShadows {
         }
     }
 
-    /// Whether any instance is temporary: the techniques then shadow the permanent surface and this
-    /// pass runs, for the shadows the dragged objects cast and those they receive.
     /// Compiles what a drag's first frames would (the lookups, the maps' depth passes for closed
     /// and open meshes): with the engine, not in the frame a light first joins a drag, where on a
     /// CPU adapter it took 19.5 ms of recording (`room`, 128 × 96), 17 × a drag step's.
@@ -231,12 +233,13 @@ impl TemporaryShadows {
         for dragged in [false, true] {
             lookup_pipeline(shared, dragged);
         }
-        let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
         for cull in [Some(wgpu::Face::Front), None] {
-            crate::shadowmap::depth_pipeline(shared, cull, false, false, &raster);
+            crate::shadowmap::depth_pipeline(shared, cull, false, false, &RASTER);
         }
     }
 
+    /// Whether any instance is temporary: the techniques then shadow the permanent surface and this
+    /// pass runs, for the shadows the dragged objects cast and those they receive.
     pub fn active(live: &LiveScene) -> bool {
         live.scene().instances.iter().any(|i| i.mobility == Mobility::Temporary)
     }
@@ -491,7 +494,6 @@ impl TemporaryShadows {
             self.maps = Some((maps, group));
         }
         let (maps, group) = self.maps.as_mut().expect("made above");
-        let raster = Raster { faces: FaceMode::Back, slope_bias: SLOPE_BIAS, linear_depth: false, only_masked: false };
         let temporary: u32 = self.pending.iter().map(|p| p.views.len() as u32).sum();
         let max = shared.gpu.device.limits().max_texture_dimension_2d;
         if self.atlas.as_ref().is_none_or(|a| a.capacity() < temporary || a.tile != size) {
@@ -523,7 +525,7 @@ impl TemporaryShadows {
                     continue;
                 }
                 let slot = slots.first + j as u32;
-                maps.render(ctx, slot, slot, &raster);
+                maps.render(ctx, slot, slot, &RASTER);
                 ctx.cache.work.temporary_views += 1;
                 *drawn = true;
             }
@@ -551,7 +553,7 @@ impl TemporaryShadows {
                 .map(|(t, (_, rect))| (t, Some(rect)))
                 .collect();
             if !tiles.is_empty() {
-                atlas.maps.render_tiles(ctx, layer, &tiles, &raster, &[Mobility::Temporary], true);
+                atlas.maps.render_tiles(ctx, layer, &tiles, &RASTER, &[Mobility::Temporary], true);
             }
         }
         let device = &shared.gpu.device;

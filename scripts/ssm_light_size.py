@@ -20,7 +20,8 @@ from pathlib import Path
 
 SIZES = [0.25, 0.35, 0.5, 0.7, 1.0]
 SERIES = [
-    ("ssm", "ssm (lod, adaptive)", "#d62728"),
+    ("ssm", "ssm (lod, adaptive, 3 layers)", "#d62728"),
+    ("ssm:layers=1", "ssm, one layer (the paper's LOD)", "#ff7f0e"),
     ("ssm:lod=false", "ssm, no LOD", "#ff9896"),
     ("sampled:samples=64", "sampled, 64 samples", "#1f77b4"),
     ("pcss", "pcss", "#2ca02c"),

@@ -397,6 +397,37 @@ pub fn kernel_half_width(radius_over_texel: f32, z_min: f32, z_p: f32, off_axis:
     }
 }
 
+/// The inverse of [`kernel_half_width`] in the occluder's depth: the axis distance at which an occluder's
+/// kernel is `half` texels. Occluders farther from the light (nearer p) have smaller kernels, so
+/// `z ≥ kernel_depth(…)` ⟺ `kernel_half_width(…, z, …) ≤ half` for z < z_p. It cuts the occluders into
+/// [`occluder_layers`]. A zero-size emitter (every kernel 0) gives 0 (perspective) or −∞ (orthographic):
+/// every occluder; `half ≤ 0` or NaN gives z_p.
+pub fn kernel_depth(radius_over_texel: f32, half: f32, z_p: f32, off_axis: f32, orthographic: bool) -> f32 {
+    let (r, h) = (nonneg(radius_over_texel), nonneg(half));
+    if orthographic {
+        if r == 0.0 { f32::NEG_INFINITY } else { z_p - h / r }
+    } else {
+        let c = r * (1.0 + nonneg(off_axis));
+        if c == 0.0 { 0.0 } else { 1.0 / (h / c + 1.0 / z_p) }
+    }
+}
+
+/// How many occluder layers a pixel traces (beyond the paper, whose one level per pixel, §5.1, loses
+/// the small shadows of occluders near the receiver beside the wide penumbra of one near the light).
+/// Layer 0 holds the occluders nearer the light than [`kernel_depth`] of the kernel's `half / 2^finer`
+/// and is traced at the pixel's levels (`lod`, `other`); layer j holds those whose own kernel is at most
+/// `half / 2^(j·finer)` (and more than the next layer's bound), traced over that kernel at levels
+/// `j·finer` finer: as many samples as layer 0, so each layer costs about the same. The last layer takes
+/// every occluder down to p. At most `most` (at least 1), and only as many as the levels allow, so that
+/// no layer's level is below 0. The layers' visible fractions multiply (their occluders taken as
+/// independent).
+pub fn occluder_layers(lod: u32, other: u32, most: u32, finer: u32) -> u32 {
+    if finer == 0 {
+        return 1;
+    }
+    most.clamp(1, 1 + lod.min(other) / finer)
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // §5.2: screen-space selection
 
@@ -840,6 +871,53 @@ mod tests {
         let plain = kernel_half_width((r / texel) as f32, z_min as f32, z_p as f32, 0.0, false) as f64;
         assert!((d / plain - 1.0 / 0.75f64.sqrt()).abs() < 1e-4, "{}", d / plain);
         assert!(d <= kernel_half_width((r / texel * z_p / (z_p - r)) as f32, 1.5, 2.0, 0.0, false) as f64);
+    }
+
+    /// `kernel_depth` inverts `kernel_half_width` in the occluder's depth, so the layers' cut puts an
+    /// occluder in the finer layer exactly when its own kernel fits the finer layer's; the layer
+    /// count never sends a level below 0.
+    #[test]
+    fn occluder_layers_cut_by_their_own_kernels() {
+        let mut rng = Rng(0x5EED_0000_0000_0007);
+        let mut f = |lo: f32, hi: f32| rng.range(lo as f64, hi as f64) as f32;
+        for _ in 0..2000 {
+            let (r, z_p, off) = (f(1.0, 5000.0), f(0.5, 50.0), f(0.0, 1.0));
+            let ortho = f(0.0, 1.0) < 0.5;
+            let r = if ortho { r / 100.0 } else { r };
+            let half = f(0.5, 300.0);
+            let cut = kernel_depth(r, half, z_p, off, ortho);
+            assert!(cut < z_p, "{cut} {z_p}");
+            let back = kernel_half_width(r, cut.max(1e-6), z_p, off, ortho);
+            if cut > 1e-3 {
+                assert!((back - half).abs() <= 1e-3 * half, "r {r} z_p {z_p} half {half}: {back}");
+            }
+            for _ in 0..4 {
+                let z = f(0.01, z_p);
+                let k = kernel_half_width(r, z, z_p, off, ortho);
+                // Away from the cut (float rounding), the kernel fits the layer iff z ≥ cut.
+                if (z - cut).abs() > 1e-3 * z_p {
+                    assert_eq!(k <= half, z >= cut, "z {z} cut {cut} kernel {k} half {half}");
+                }
+            }
+        }
+        assert_eq!(kernel_depth(0.0, 10.0, 2.0, 0.0, false), 0.0);
+        assert_eq!(kernel_depth(0.0, 10.0, 2.0, 0.0, true), f32::NEG_INFINITY);
+        assert_eq!(kernel_depth(10.0, f32::NAN, 2.0, 0.0, false), 2.0);
+        assert_eq!(kernel_depth(10.0, 0.0, 2.0, 0.0, true), 2.0);
+        for lod in 0..12u32 {
+            for other in [lod.saturating_sub(1), lod, lod + 1] {
+                for most in 0..5 {
+                    for finer in 0..4 {
+                        let n = occluder_layers(lod, other, most, finer);
+                        assert!(n >= 1 && n <= most.max(1));
+                        assert!((n - 1) * finer <= lod.min(other), "{lod} {other} {most} {finer}: {n}");
+                    }
+                }
+            }
+        }
+        assert_eq!(occluder_layers(5, 5, 3, 2), 3);
+        assert_eq!(occluder_layers(3, 2, 3, 2), 2);
+        assert_eq!(occluder_layers(1, 1, 3, 2), 1);
     }
 
     #[test]

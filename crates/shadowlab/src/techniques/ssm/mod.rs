@@ -24,6 +24,13 @@
 //!    pull-push (`fill.wgsl`). The modern mapping of NOTES-002 §5: classify → append list →
 //!    indirect dispatch → pull-push.
 //!
+//! 6. **Occluder layers** (beyond the paper, `layers`, `finer`): one level per pixel loses the small
+//!    shadows of occluders near the receiver beside the wide penumbra of one near the light (the
+//!    kernel, from the nearest occluder, sets the level). The occluders are cut by depth: those whose
+//!    own kernel is at most the pixel's / 2^finer are traced `finer` levels finer over that kernel,
+//!    and so on for up to `layers` layers, each about as costly as the first; the layers' visible
+//!    fractions multiply ([`shadowlab_core::backprojection::occluder_layers`]).
+//!
 //! Emitters (DESIGN.md §3): a rectangle in its own plane, a sphere light as its disk facing the
 //! pixel, the sun as its cone of directions in gnomonic projection (a disk of radius tan θ). The
 //! CPU reference of the rules, with their unit tests, is [`shadowlab_core::backprojection`].
@@ -90,6 +97,14 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ParamDef::bool("lod", true, "light-space LOD: the pyramid level where the kernel is at most t_k texels"),
         ParamDef::float("t_k", 8.0, 1.0, 64.0, "widest kernel (texels of the level used) with lod"),
         ParamDef::float("beta", 0.05, 0.0, 0.5, "band of the continuous level over which two levels blend"),
+        ParamDef::int(
+            "layers",
+            3,
+            1,
+            4,
+            "with lod: occluder layers by depth, each traced `finer` levels finer than the one nearer the light (1: the paper's one level)",
+        ),
+        ParamDef::int("finer", 2, 1, 8, "with layers: how many levels finer each layer is traced"),
         ParamDef::float("max_kernel", 256.0, 2.0, 4096.0, "widest kernel (texels) without lod; wider is clipped"),
         ParamDef::int("iterations", 4, 1, 16, "kernel-tightening steps"),
         ParamDef::float(
@@ -136,6 +151,7 @@ struct SsmUniform {
     limits: [f32; 4],
     screen: [f32; 4],
     extra: [f32; 4],
+    layers: [f32; 4],
     levels: [[u32; 4]; MAX_LEVELS],
     inv: [[[f32; 4]; 4]; MAX_VIEWS],
 }
@@ -283,6 +299,7 @@ fn create(
         // Discontinuities force exact pixels as far as the pattern spaces them.
         screen: [DEPTH_STEP, NORMAL_COS, pattern as f32, show as f32],
         extra: [0.0, params.float("plane_reach") as f32, 0.0, 1.0],
+        layers: [params.int("layers") as f32, params.int("finer") as f32, 0.0, 0.0],
         levels: [[0; 4]; MAX_LEVELS],
         inv: [[[0.0; 4]; 4]; MAX_VIEWS],
     };
@@ -621,7 +638,7 @@ impl ShadowTechnique for Ssm {
 }
 
 // The uniform's layout is WGSL's: five vec4s, 16 level entries, 6 matrices.
-const _: () = assert!(std::mem::size_of::<SsmUniform>() == 5 * 16 + MAX_LEVELS * 16 + MAX_VIEWS * 64);
+const _: () = assert!(std::mem::size_of::<SsmUniform>() == 6 * 16 + MAX_LEVELS * 16 + MAX_VIEWS * 64);
 
 #[cfg(test)]
 mod tests {
@@ -641,6 +658,7 @@ mod tests {
             limits: [iterations, 256.0, 10.0, 0.0],
             screen: [0.0; 4],
             extra: [0.0, 2.0, 0.0, 1.0],
+            layers: [0.0; 4],
             levels: [[0; 4]; MAX_LEVELS],
             inv: [[[0.0; 4]; 4]; MAX_VIEWS],
         }

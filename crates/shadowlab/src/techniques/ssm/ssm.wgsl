@@ -33,6 +33,9 @@ struct Ssm {
     // (level-0 texels) the receiver's plane is extrapolated; z: the adapter's loop budget per
     // invocation (0: none); w: the front's pixels per invocation.
     extra: vec4<f32>,
+    // x: the most occluder layers (`layers`); y: how many levels finer each layer is traced than
+    // the one nearer the light.
+    layers: vec4<f32>,
     // Per pyramid level ≥ 1: x: offset in a view's block, y: side (texels).
     levels: array<vec4<u32>, 16>,
     // Inverse view-projection of each view the lookups read.
@@ -161,6 +164,10 @@ struct Pixel {
     rt: vec4<f32>,
     rb: vec4<f32>,
     rm: vec4<f32>,
+    // The occluder layer traced: samples whose stored depth d has cut_lo < d ≤ cut_hi (all of
+    // them: −1, 2).
+    cut_lo: f32,
+    cut_hi: f32,
 };
 
 fn basis_u(m: vec3<f32>) -> vec3<f32> {
@@ -534,7 +541,7 @@ fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
 // (stored depth, 1 if it occludes) of sample s.
 fn occludes(px: Pixel, l: Level, s: vec2<i32>) -> vec2<f32> {
     let d = nearest_at(l, s);
-    return vec2<f32>(d, select(0.0, 1.0, d > threshold(px, l, s)));
+    return vec2<f32>(d, select(0.0, 1.0, d > threshold(px, l, s) && d > px.cut_lo && d <= px.cut_hi));
 }
 
 fn mask_at(px: Pixel, l: Level, c: vec2<i32>) -> u32 {
@@ -617,7 +624,10 @@ fn uniform_samples(px: Pixel, l: Level, lo: vec2<i32>, hi: vec2<i32>) -> bool {
     let e = dot(abs(px.g), far);
     let low = px.z - e;
     let high = px.z + e;
-    return nearest <= low || farthest > high;
+    // None occludes (below the plane, or outside the layer), or all do.
+    let none = nearest <= max(low, px.cut_lo) || farthest > px.cut_hi;
+    let all_in = farthest > max(high, px.cut_lo) && nearest <= px.cut_hi;
+    return none || all_in;
 }
 
 // The fraction of the emitter visible from the receiver, from the contour at `level`.
@@ -692,7 +702,13 @@ fn level_loops(half: f32, level: u32) -> u32 {
 
 // An upper bound on the loop iterations of a listed pixel's `visibility_at` calls.
 fn pixel_loops(s: Setup) -> u32 {
-    return level_loops(s.px.half, s.lod) + select(0u, level_loops(s.px.half, s.other), s.w > 0.0);
+    var sum = 0u;
+    for (var j = 0u; j < s.layers; j = j + 1u) {
+        let half = s.px.half / f32(1u << (j * s.finer));
+        sum = sum + level_loops(half, s.lod - j * s.finer);
+        sum = sum + select(0u, level_loops(half, s.other - j * s.finer), s.w > 0.0);
+    }
+    return sum;
 }
 
 // ---- per pixel: kernel, level, class ----
@@ -718,6 +734,31 @@ fn kernel_half(px: Pixel, zn: f32) -> f32 {
     return (r * depth / view.axis.w) * (1.0 / max(zn, 1.0e-6) - 1.0 / px.zd) * (1.0 + off_axis);
 }
 
+// The distance along the view's axis at which an occluder's kernel (`kernel_half`) is `h` texels:
+// occluders farther from the light have smaller ones (shadowlab_core::backprojection::kernel_depth).
+fn kernel_depth(px: Pixel, h: f32) -> f32 {
+    let view = shadow_views[px.view];
+    let r = emitter_radius();
+    if (view.eye.w > 0.5) {
+        return px.zd - h * view.axis.w / max(r, 1.0e-12);
+    }
+    let side = map_params.bias.z;
+    let off_axis = 0.5 * side * view.axis.w * max(abs(2.0 * px.st.x / side - 1.0), abs(2.0 * px.st.y / side - 1.0));
+    let depth = px.zd / max(px.zd - r, 1.0e-6 * px.zd);
+    let c = (r * depth / view.axis.w) * (1.0 + off_axis);
+    return 1.0 / (h / max(c, 1.0e-12) + 1.0 / px.zd);
+}
+
+// The stored depth of distance `d` along the view's axis (the inverse of `shadow_distance`).
+fn stored_depth_at(v: ShadowView, d: f32) -> f32 {
+    let n = v.range.x;
+    let f = v.range.y;
+    if (v.eye.w > 0.5) {
+        return (f - d) / (f - n);
+    }
+    return (n * f / max(d, 1.0e-20) - n) / (f - n);
+}
+
 struct Setup {
     px: Pixel,
     kind: u32,
@@ -729,6 +770,10 @@ struct Setup {
     z_occ: f32,
     // The part of the emitter above the receiver's tangent plane.
     horizon: f32,
+    // Occluder layers (`layers`): layer j holds the occluders whose own kernel is at most the
+    // pixel's / 2^(j·finer), traced j·finer levels finer than the levels above.
+    layers: u32,
+    finer: u32,
 };
 
 fn lod_blend(lambda: f32, beta: f32, top: u32) -> vec3<f32> {
@@ -750,6 +795,8 @@ fn setup(pixel: vec2<u32>) -> Setup {
     var out: Setup;
     out.kind = LIT;
     out.horizon = 1.0;
+    out.layers = 1u;
+    out.finer = 0u;
     let s = load_surface(pixel);
     if (!s.relevant) {
         return out;
@@ -773,6 +820,8 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.rt = emitter_row(inv, px.p, px.t);
     px.rb = emitter_row(inv, px.p, px.b);
     px.rm = emitter_row(inv, px.p, px.m);
+    px.cut_lo = -1.0;
+    px.cut_hi = 2.0;
     if (!px.hard) {
         // The receiver's own horizon, on its facet (horizon.wgsl).
         out.horizon = light_horizon(light, px.p, geometric_normal(pixel, px.n));
@@ -819,13 +868,25 @@ fn setup(pixel: vec2<u32>) -> Setup {
         half = min(half, 0.5 * ssm.limits.y);
     }
     px.half = half;
+    // Occluder layers (shadowlab_core::backprojection::occluder_layers): one level per pixel
+    // (§5.1) loses the small shadows of occluders near the receiver beside the wide penumbra of
+    // one near the light. Where the level is `finer` or more above the finest, the occluders
+    // whose own kernel is at most half / 2^finer (those farther from the light than
+    // `kernel_depth`) are traced `finer` levels finer, over that smaller kernel (as many samples
+    // of their level), and so on down. The layers' visible fractions multiply.
+    let finer = u32(ssm.layers.y);
+    if (ssm.adapt.x > 0.5 && !px.hard && finer > 0u) {
+        out.finer = finer;
+        out.layers = clamp(u32(ssm.layers.x), 1u, 1u + min(lod, other) / finer);
+    }
+    let layers = out.layers;
     let budget = loop_budget();
     if (budget > 0u) {
         // An adapter that ends loops past a budget (`loop_budget`) would cut this pixel's contour
         // short; coarser levels, whose kernels hold fewer samples, are used where it would.
         let room = budget - min(budget, setup_loops() + ROUND_LOOPS);
         for (var k = 0u; k < 16u; k = k + 1u) {
-            if (level_loops(half, lod) + select(0u, level_loops(half, other), w > 0.0) <= room || min(lod, other) >= top) {
+            if (layers * (level_loops(half, lod) + select(0u, level_loops(half, other), w > 0.0)) <= room || min(lod, other) >= top) {
                 break;
             }
             lod = min(lod + 1u, top);
@@ -1013,9 +1074,25 @@ fn listed(setup_in: Setup, i: u32) {
         vbuf[i] = vec2<f32>(min(s.px.half / 128.0, 1.0), 1.0);
         return;
     }
-    var v = visibility_at(s.px, s.lod);
-    if (s.w > 0.0) {
-        v = mix(v, visibility_at(s.px, s.other), s.w);
+    var v = 1.0;
+    var layer = s.px;
+    let view = shadow_views[s.px.view];
+    for (var j = 0u; j < s.layers; j = j + 1u) {
+        let shift = j * s.finer;
+        layer.half = s.px.half / f32(1u << shift);
+        layer.cut_hi = layer.cut_lo;
+        if (j == 0u) {
+            layer.cut_hi = 2.0;
+        }
+        layer.cut_lo = -1.0;
+        if (j + 1u < s.layers) {
+            layer.cut_lo = stored_depth_at(view, kernel_depth(s.px, layer.half / f32(1u << s.finer)));
+        }
+        var vj = visibility_at(layer, s.lod - shift);
+        if (s.w > 0.0) {
+            vj = mix(vj, visibility_at(layer, s.other - shift), s.w);
+        }
+        v = v * vj;
     }
     // The receiver's horizon and the occluders' contour, combined by the minimum (exact when one
     // hides a part of the emitter the other does too).

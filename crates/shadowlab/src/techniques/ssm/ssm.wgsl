@@ -687,8 +687,9 @@ fn setup_loops() -> u32 {
     return 10u * (u32(ssm.limits.x) + 3u) + 20u;
 }
 
-// A pixel's share of loops outside `setup` and `visibility_at` (the pass's own loop among them).
-const ROUND_LOOPS: u32 = 8u;
+// A pixel's share of loops outside `setup` and `visibility_at`: the pass's own loop, and the
+// layers' (at most 4 and its exit) among them.
+const ROUND_LOOPS: u32 = 13u;
 
 // An upper bound on the loop iterations of `visibility_at(px, level)` for a kernel of half-width
 // `half` (level-0 texels): tiles of 4 × 4 blocks per axis, each counting at most 35 (its own

@@ -323,7 +323,7 @@ fn create(
 
 /// `ssm.wgsl`'s `setup_loops` and `ROUND_LOOPS`.
 fn setup_loops(iterations: f32) -> u32 {
-    10 * (iterations as u32 + 3) + 20 + 13
+    10 * (iterations as u32 + 3) + 20 + 40
 }
 
 /// The uniform's `extra` with its budget terms: x, the most loops of a pixel computed several to

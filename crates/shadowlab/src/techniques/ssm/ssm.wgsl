@@ -630,6 +630,20 @@ fn uniform_samples(px: Pixel, l: Level, lo: vec2<i32>, hi: vec2<i32>) -> bool {
     return none || all_in;
 }
 
+// Whether no sample `visibility_at(px, l)` reads, for l up to `level`, can occlude: one look at the
+// pyramid over them all (a superset of their level-0 texels) finds them all below the receiver's
+// plane or all outside the layer (nearer the light than `cut_hi`). A layer near the receiver is
+// often empty (every occluder at one depth): it then costs this look alone.
+fn layer_empty(px: Pixel, level: u32) -> bool {
+    let scale = f32(1u << level);
+    // The blocks meeting the kernel, one sample of the level beyond it on each side.
+    let reach = px.half + 2.0 * scale;
+    let b = hsm_bounds(px.view, px.st - vec2<f32>(reach), px.st + vec2<f32>(reach), 1.0);
+    // The receiver's plane (as `threshold` holds it) is at least this low over them.
+    let low = px.z - px.g1 * min(reach + 0.5 * scale, ssm.extra.y);
+    return b.nearest <= max(low, px.cut_lo) || b.farthest > px.cut_hi;
+}
+
 // The fraction of the emitter visible from the receiver, from the contour at `level`.
 fn visibility_at(px: Pixel, level: u32) -> f32 {
     let l = level_of(px, level);
@@ -688,8 +702,8 @@ fn setup_loops() -> u32 {
 }
 
 // A pixel's share of loops outside `setup` and `visibility_at`: the pass's own loop, and the
-// layers' (at most 4 and its exit) among them.
-const ROUND_LOOPS: u32 = 13u;
+// layers' (at most 4 and its exit) with their `layer_empty` looks (9 each, 3 layers) among them.
+const ROUND_LOOPS: u32 = 40u;
 
 // An upper bound on the loop iterations of `visibility_at(px, level)` for a kernel of half-width
 // `half` (level-0 texels): tiles of 4 × 4 blocks per axis, each counting at most 35 (its own
@@ -1088,6 +1102,9 @@ fn listed(setup_in: Setup, i: u32) {
         layer.cut_lo = -1.0;
         if (j + 1u < s.layers) {
             layer.cut_lo = stored_depth_at(view, kernel_depth(s.px, layer.half / f32(1u << s.finer)));
+        }
+        if (j > 0u && layer_empty(layer, max(s.lod, s.other) - shift)) {
+            continue;
         }
         var vj = visibility_at(layer, s.lod - shift);
         if (s.w > 0.0) {

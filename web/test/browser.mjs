@@ -240,6 +240,25 @@ let webgpuHard = null;
   await page.close();
 }
 
+// A lost device (a driver reset, the browser's GPU process ended; here the device destroyed): the
+// page says so and stops drawing, and a technique chosen afterwards is refused in words, where a
+// call on the lost device would have panicked (a buffer mapped at creation fails outright).
+{
+  const { page, errors } = await open('webgpu', 'hard');
+  await framesAfter(page, 2);
+  await page.evaluate(() => window.shadowlab.app.lose_device());
+  await page.waitForFunction(() => window.shadowlab.error, { timeout: TIMEOUT, polling: 100 }).catch(() => {});
+  const shown = await page.evaluate(() => window.shadowlab.error);
+  check(/lost/.test(shown), `WebGPU: a lost device is reported (${shown})`);
+  await page.select('#techniques', 'pcss');
+  const after = await page.evaluate(() => [window.shadowlab.app.technique(), document.getElementById('error').textContent]);
+  check(after[0] === 'hard' && /lost/.test(after[1]), `WebGPU: after the loss a technique is refused in words (${after.join(' | ')})`);
+  // The frame loop logs the loss once; anything else (a panic above all) fails.
+  const others = errors.filter(e => !/lost/.test(e));
+  check(others.length === 0, `WebGPU: nothing but the loss is logged after it (${others.join(' | ')})`);
+  await page.close();
+}
+
 // `auto` (the page's default) takes WebGPU where the browser offers it, as this one does.
 {
   const { page, errors } = await open('auto', 'hard');

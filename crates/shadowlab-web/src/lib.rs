@@ -213,6 +213,7 @@ impl App {
 
     /// Shows a built-in scene (`room`, `penumbra:light_size=1`, ...).
     pub fn load_builtin(&mut self, spec: &str) -> Result<(), JsError> {
+        self.alive()?;
         let scene = shadowlab::core::scenes::build(spec).map_err(js_error)?;
         self.show(spec.to_owned(), scene)
     }
@@ -221,6 +222,7 @@ impl App {
     /// `.obj`; a glTF's other files and an OBJ's `.mtl` are not read, so their materials are the
     /// defaults). Returns the loader's warnings, one per line.
     pub fn load_file(&mut self, name: &str, bytes: &[u8]) -> Result<String, JsError> {
+        self.alive()?;
         let path = std::path::Path::new(name);
         let loaded = shadowlab::core::load::parse_file_bytes(bytes, path, Default::default()).map_err(js_error)?;
         self.show(name.to_owned(), loaded.scene)?;
@@ -230,6 +232,7 @@ impl App {
     /// Puts `spec` (`pcf`, `pcss:light_size=2`, ...) on every light; a light the technique does
     /// not take gets `hard`. Returns the lights that did, one per line.
     pub fn set_technique(&mut self, spec: &str) -> Result<String, JsError> {
+        self.alive()?;
         let parsed = TechniqueSpec::parse(spec, &[]).map_err(js_error)?;
         let fallback = self.apply_technique(&parsed)?;
         self.spec = spec.to_owned();
@@ -243,6 +246,7 @@ impl App {
 
     /// Looks through the scene's view `name`.
     pub fn set_view(&mut self, name: &str) -> Result<(), JsError> {
+        self.alive()?;
         let Some(renderer) = &mut self.renderer else { return Err(JsError::new("no scene yet")) };
         let view = renderer.scene().view(name).cloned().ok_or_else(|| JsError::new(&format!("no view '{name}'")))?;
         renderer.set_view(&view);
@@ -290,8 +294,15 @@ impl App {
         }
     }
 
+    /// Destroys the GPU device, as a driver reset or the end of the browser's GPU process loses it
+    /// (for tests: the page must then say so, and refuse work without a panic).
+    pub fn lose_device(&self) {
+        self.gpu.device.destroy();
+    }
+
     /// Records and submits one frame and shows it in the canvas.
     pub fn frame(&mut self) -> Result<(), JsError> {
+        self.alive()?;
         let Some(renderer) = &mut self.renderer else { return Ok(()) };
         renderer.frame().map_err(js_error)?;
         if let Some(e) = self.gpu.take_error() {
@@ -316,6 +327,15 @@ impl App {
 }
 
 impl App {
+    /// An error saying so once the device is lost: nothing more can be drawn, and some calls
+    /// would fail outright (reloading the page opens a new device).
+    fn alive(&self) -> Result<(), JsError> {
+        match self.gpu.lost() {
+            Some(why) => Err(JsError::new(&format!("{why}; reload the page"))),
+            None => Ok(()),
+        }
+    }
+
     fn show(&mut self, name: String, scene: Scene) -> Result<(), JsError> {
         let view = scene.views.first().cloned().ok_or_else(|| JsError::new("the scene has no view"))?;
         let renderer = Renderer::new(&self.gpu, scene, &view, self.config.width, self.config.height);

@@ -97,6 +97,9 @@ pub struct Gpu {
     /// The first uncaptured device error (out of memory, a limit exceeded), when shadowlab owns
     /// the device; see [`Gpu::take_error`].
     errors: std::sync::Arc<std::sync::Mutex<Option<String>>>,
+    /// Why the device was lost (a driver reset, the browser's GPU process ended, `destroy`), once
+    /// it was, when shadowlab owns the device; see [`Gpu::lost`].
+    lost: std::sync::Arc<std::sync::Mutex<Option<String>>>,
 }
 
 /// Whether `device` runs compute shaders (and storage buffers and textures): every GPU and CPU
@@ -239,6 +242,15 @@ impl Gpu {
                 *slot = Some(e.to_string());
             }
         }));
+        // Nothing drawn on a lost device shows, and some calls on it fail outright (a buffer
+        // mapped at creation, in a browser): callers check `lost` first and say why instead.
+        let lost = gpu.lost.clone();
+        gpu.device.set_device_lost_callback(move |reason, message| {
+            let mut slot = lost.lock().unwrap_or_else(|p| p.into_inner());
+            let message = message.trim().trim_end_matches('.');
+            let detail = if message.is_empty() { String::new() } else { format!(": {message}") };
+            slot.get_or_insert_with(|| format!("the GPU device was lost ({reason:?}){detail}"));
+        });
         Ok(gpu)
     }
 
@@ -246,6 +258,12 @@ impl Gpu {
     /// application's device keeps the application's own error handler).
     pub fn take_error(&self) -> Option<String> {
         self.errors.lock().unwrap_or_else(|p| p.into_inner()).take()
+    }
+
+    /// Why the device was lost, once it was (only on devices shadowlab opened itself). Unlike
+    /// [`Gpu::take_error`] it stays: nothing more can be drawn on that device.
+    pub fn lost(&self) -> Option<String> {
+        self.lost.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
     /// Uses an application's own device and queue (how shadowlab is embedded).
@@ -258,6 +276,7 @@ impl Gpu {
             info: info.clone(),
             timestamps,
             errors: Default::default(),
+            lost: Default::default(),
         }
     }
 

@@ -20,3 +20,17 @@ fn device_errors_are_reported_not_raised() {
     assert!(e.to_lowercase().contains("dimension") || e.to_lowercase().contains("size"), "{e}");
     assert_eq!(gpu.take_error(), None, "taken once");
 }
+
+/// A lost device (a driver reset, a browser's GPU process ended; here `destroy`) is recorded and
+/// stays recorded: callers check [`shadowlab::Gpu::lost`] before drawing (the web page says so
+/// and refuses work instead of drawing nothing, or panicking on a call that fails outright there).
+#[test]
+fn a_lost_device_is_recorded() {
+    let gpu = common::gpu();
+    assert_eq!(gpu.lost(), None);
+    gpu.device.destroy();
+    gpu.wait();
+    let why = gpu.lost().expect("the loss was recorded");
+    assert!(why.contains("lost") && why.contains("Destroyed"), "{why}");
+    assert_eq!(gpu.lost().as_deref(), Some(why.as_str()), "it stays");
+}

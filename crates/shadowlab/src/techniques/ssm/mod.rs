@@ -637,7 +637,7 @@ impl ShadowTechnique for Ssm {
     }
 }
 
-// The uniform's layout is WGSL's: five vec4s, 16 level entries, 6 matrices.
+// The uniform's layout is WGSL's: six vec4s, 16 level entries, 6 matrices.
 const _: () = assert!(std::mem::size_of::<SsmUniform>() == 6 * 16 + MAX_LEVELS * 16 + MAX_VIEWS * 64);
 
 #[cfg(test)]

@@ -733,35 +733,40 @@ fn pixel_loops(s: Setup) -> u32 {
 // extent seen off the view's axis widens it by (1 + off-axis tangent); see
 // shadowlab_core::backprojection::kernel_half_width).
 fn kernel_half(px: Pixel, zn: f32) -> f32 {
-    let view = shadow_views[px.view];
-    let r = emitter_radius();
-    if (zn >= px.zd || r <= 0.0) {
+    if (zn >= px.zd || emitter_radius() <= 0.0) {
         return 0.0;
     }
+    let rate = kernel_rate(px);
+    if (shadow_views[px.view].eye.w > 0.5) {
+        return rate * (px.zd - zn);
+    }
+    return rate * (1.0 / max(zn, 1.0e-6) - 1.0 / px.zd);
+}
+
+// How fast the kernel grows as the occluder nears the light: `kernel_half` is rate · (z_d − z_n)
+// for the sun, rate · (1/z_n − 1/z_d) for local lights.
+fn kernel_rate(px: Pixel) -> f32 {
+    let view = shadow_views[px.view];
+    let r = emitter_radius();
     if (view.eye.w > 0.5) {
-        return r * (px.zd - zn) / view.axis.w;
+        return r / view.axis.w;
     }
     let side = map_params.bias.z;
     let off_axis = 0.5 * side * view.axis.w * max(abs(2.0 * px.st.x / side - 1.0), abs(2.0 * px.st.y / side - 1.0));
     // Emitter points nearer the light's centre than its plane (a sphere's front half) see the
     // kernel widened by z_p / (z_p − R) (shadowlab_core::backprojection::kernel_half_width).
     let depth = px.zd / max(px.zd - r, 1.0e-6 * px.zd);
-    return (r * depth / view.axis.w) * (1.0 / max(zn, 1.0e-6) - 1.0 / px.zd) * (1.0 + off_axis);
+    return (r * depth / view.axis.w) * (1.0 + off_axis);
 }
 
 // The distance along the view's axis at which an occluder's kernel (`kernel_half`) is `h` texels:
 // occluders farther from the light have smaller ones (shadowlab_core::backprojection::kernel_depth).
 fn kernel_depth(px: Pixel, h: f32) -> f32 {
-    let view = shadow_views[px.view];
-    let r = emitter_radius();
-    if (view.eye.w > 0.5) {
-        return px.zd - h * view.axis.w / max(r, 1.0e-12);
+    let rate = max(kernel_rate(px), 1.0e-12);
+    if (shadow_views[px.view].eye.w > 0.5) {
+        return px.zd - h / rate;
     }
-    let side = map_params.bias.z;
-    let off_axis = 0.5 * side * view.axis.w * max(abs(2.0 * px.st.x / side - 1.0), abs(2.0 * px.st.y / side - 1.0));
-    let depth = px.zd / max(px.zd - r, 1.0e-6 * px.zd);
-    let c = (r * depth / view.axis.w) * (1.0 + off_axis);
-    return 1.0 / (h / max(c, 1.0e-12) + 1.0 / px.zd);
+    return 1.0 / (h / rate + 1.0 / px.zd);
 }
 
 // The stored depth of distance `d` along the view's axis (the inverse of `shadow_distance`).

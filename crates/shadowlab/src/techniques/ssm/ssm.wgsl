@@ -396,19 +396,28 @@ struct BlockEdges {
 
 // A block's single edge: from the crossing between occluder `ha` and sample `a_to` to the one
 // between occluder `hb` and sample `b_to`, its ends holding those occluders' depths.
-fn one_edge(ha: u32, a_to: u32, hb: u32, b_to: u32, t: f32) -> BlockEdges {
+fn one_edge(ha: u32, a_to: u32, hb: u32, b_to: u32, t: f32, cut: u32) -> BlockEdges {
     var e: BlockEdges;
-    e.a0 = crossing(ha, a_to, t);
-    e.b0 = crossing(hb, b_to, t);
+    e.a0 = crossing(ha, a_to, crossing_t(a_to, t, cut));
+    e.b0 = crossing(hb, b_to, crossing_t(b_to, t, cut));
     e.ha0 = ha;
     e.hb0 = hb;
     e.count = 1u;
     return e;
 }
 
+// The contour's t towards sample b: t, or 0 (the border) where b occludes too but lies in another
+// occluder layer (bit b of `cut`): that layer's contour has the same edge the other way round,
+// and both at the border leave neither a gap nor an overlap between them.
+fn crossing_t(b: u32, t: f32, cut: u32) -> f32 {
+    return select(t, 0.0, ((cut >> b) & 1u) != 0u);
+}
+
 // The marching-squares rule of a block with occluder mask `mask` (bit i: sample i occludes): up to
 // two edges, the occluder on their left. shadowlab_core::backprojection::block_edges is the same table.
-fn block_edges(mask: u32, t: f32) -> BlockEdges {
+fn block_edges(code: u32, t: f32) -> BlockEdges {
+    let mask = code & 15u;
+    let cut = code >> 4u;
     var e: BlockEdges;
     e.count = 0u;
     if (mask == 0u || mask == 15u) {
@@ -425,20 +434,20 @@ fn block_edges(mask: u32, t: f32) -> BlockEdges {
     let i3 = (i + 3u) & 3u;
     if (r == 1u || r == 5u) {
         // One occluder at i (and its diagonal twin for 0x5, 0xA).
-        e = one_edge(i, i1, i, i3, t);
+        e = one_edge(i, i1, i, i3, t, cut);
         if (r == 5u) {
-            e.a1 = -e.a0;
-            e.b1 = -e.b0;
+            e.a1 = crossing(i2, i3, crossing_t(i3, t, cut));
+            e.b1 = crossing(i2, i1, crossing_t(i1, t, cut));
             e.ha1 = i2;
             e.hb1 = i2;
             e.count = 2u;
         }
     } else if (r == 3u) {
         // Occluders i and i + 1.
-        e = one_edge(i1, i2, i, i3, t);
+        e = one_edge(i1, i2, i, i3, t, cut);
     } else if (r == 14u) {
         // Background at i only.
-        e = one_edge(i3, i, i1, i, t);
+        e = one_edge(i3, i, i1, i, t, cut);
     }
     // A single occluder's corner (and a diagonal pair's) collapses to a point at t = 1. The
     // three-occluder edge at t = −1 is a point on the map too, but its ends hold two depths: it
@@ -455,8 +464,9 @@ fn left_of(a: vec2<f32>, b: vec2<f32>, x: vec2<f32>) -> bool {
 
 // Whether point x of a block (its frame) is inside the occluders' contour: the hard test of the
 // emitter's centre that matches the contour (§4.2, Fig. 5).
-fn centre_inside(mask: u32, t: f32, x: vec2<f32>) -> bool {
-    let e = block_edges(mask, t);
+fn centre_inside(code: u32, t: f32, x: vec2<f32>) -> bool {
+    let mask = code & 15u;
+    let e = block_edges(code, t);
     var extended = false;
     var left = false;
     if (e.count >= 1u && length(e.b0 - e.a0) >= 1.0e-6) {
@@ -538,10 +548,17 @@ fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
     return px.z + dot(px.g, clamp(o + side, vec2<f32>(-reach), vec2<f32>(reach)));
 }
 
-// (stored depth, 1 if it occludes) of sample s.
+// (stored depth, 1 if it occludes, 16 if it would but lies in another occluder layer) of sample s.
 fn occludes(px: Pixel, l: Level, s: vec2<i32>) -> vec2<f32> {
     let d = nearest_at(l, s);
-    return vec2<f32>(d, select(0.0, 1.0, d > threshold(px, l, s) && d > px.cut_lo && d <= px.cut_hi));
+    let in_layer = d > px.cut_lo && d <= px.cut_hi;
+    return vec2<f32>(d, select(0.0, select(16.0, 1.0, in_layer), d > threshold(px, l, s)));
+}
+
+// Four samples' `occludes` as `block_edges` takes them: bit i, sample i occludes; bit 4 + i, it
+// lies in another layer.
+fn block_code(o0: f32, o1: f32, o2: f32, o3: f32) -> u32 {
+    return u32(o0) | (u32(o1) << 1u) | (u32(o2) << 2u) | (u32(o3) << 3u);
 }
 
 fn mask_at(px: Pixel, l: Level, c: vec2<i32>) -> u32 {
@@ -549,7 +566,7 @@ fn mask_at(px: Pixel, l: Level, c: vec2<i32>) -> u32 {
     let o1 = occludes(px, l, c + vec2<i32>(1, 0)).y;
     let o2 = occludes(px, l, c + vec2<i32>(1, 1)).y;
     let o3 = occludes(px, l, c + vec2<i32>(0, 1)).y;
-    return u32(o0) | (u32(o1) << 1u) | (u32(o2) << 2u) | (u32(o3) << 3u);
+    return block_code(o0, o1, o2, o3);
 }
 
 fn holder_depth(h: u32, d: vec4<f32>) -> f32 {
@@ -576,9 +593,10 @@ fn row_terms(px: Pixel, l: Level, t: f32, i0: i32, i1: i32, j: i32) -> f32 {
     for (var i = i0; i <= i1; i = i + 1) {
         let s1 = occludes(px, l, vec2<i32>(i + 1, j));
         let s2 = occludes(px, l, vec2<i32>(i + 1, j + 1));
-        let mask = u32(s0.y) | (u32(s1.y) << 1u) | (u32(s2.y) << 2u) | (u32(s3.y) << 3u);
+        let code = block_code(s0.y, s1.y, s2.y, s3.y);
+        let mask = code & 15u;
         if (mask != 0u && mask != 15u) {
-            let e = block_edges(mask, t);
+            let e = block_edges(code, t);
             let centre = vec2<f32>(f32(i) + 0.5, f32(j) + 0.5);
             let depths = vec4<f32>(s0.x, s1.x, s2.x, s3.x);
             if (e.count >= 1u) {

@@ -414,7 +414,8 @@ fn crossing_t(b: u32, t: f32, cut: u32) -> f32 {
 }
 
 // The marching-squares rule of a block with occluder mask `mask` (bit i: sample i occludes): up to
-// two edges, the occluder on their left. shadowlab_core::backprojection::block_edges is the same table.
+// two edges, the occluder on their left. shadowlab_core::backprojection::layer_block_edges is the same
+// table (`code`: bits 0–3 the mask, 4–7 the samples in another layer).
 fn block_edges(code: u32, t: f32) -> BlockEdges {
     let mask = code & 15u;
     let cut = code >> 4u;
@@ -545,7 +546,12 @@ fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
     // occluders far from it.
     let reach = ssm.extra.y;
     let side = sign(px.g) * l.half_extent;
-    return px.z + dot(px.g, clamp(o + side, vec2<f32>(-reach), vec2<f32>(reach)));
+    // Nor can anything farther from the light than the receiver itself hide it from any point of
+    // the emitter, however its plane falls away: where the plane recedes (a crease, as the ceiling
+    // meets a wall that faces the light), the other surface, beside the receiver at its depth,
+    // would otherwise count as an occluder at the receiver's depth, whose back-projection covers
+    // the whole emitter.
+    return max(px.z + dot(px.g, clamp(o + side, vec2<f32>(-reach), vec2<f32>(reach))), px.z);
 }
 
 // (stored depth, 1 if it occludes, 16 if it would but lies in another occluder layer) of sample s.

@@ -7,8 +7,9 @@
 //!
 //! 1. **Hierarchical shadow map** (§3): a pyramid of (nearest, farthest) depths over the map
 //!    (`hsm.wgsl`, a compute reduction). The search kernel, from Eq. 1 with the map's nearest depth,
-//!    is tightened by the nearest depth inside it; its bounds classify pixels as lit or umbra
-//!    without looking further.
+//!    is tightened from the pyramid texels inside it, Eq. 1 read per texel (beyond the paper: a
+//!    texel counts only if it is nearer the light than the receiver and within its own depth's
+//!    kernel of it); its bounds classify pixels as lit or umbra without looking further.
 //! 2. **Smooth contour detection** (§4.1): marching squares over the 2 × 2 sample blocks in the
 //!    kernel, the contour grown or shrunk by `t` (0 on the finest level, `t_coarse` = 1 on coarser
 //!    ones, which the min depth dilates).
@@ -29,7 +30,9 @@
 //!    kernel, from the nearest occluder, sets the level). The occluders are cut by depth: those whose
 //!    own kernel is at most the pixel's / 2^finer are traced `finer` levels finer over that kernel,
 //!    and so on for up to `layers` layers, each about as costly as the first; the layers' visible
-//!    fractions multiply ([`shadowlab_core::backprojection::occluder_layers`]).
+//!    fractions multiply ([`shadowlab_core::backprojection::occluder_layers`]), and their contours
+//!    meet on the texel border where one body spans the cut
+//!    ([`shadowlab_core::backprojection::layer_block_edges`]).
 //!
 //! Emitters (DESIGN.md §3): a rectangle in its own plane, a sphere light as its disk facing the
 //! pixel, the sun as its cone of directions in gnomonic projection (a disk of radius tan θ). The
@@ -39,7 +42,8 @@
 //! itself (the attached shadow at a terminator, which no depth map holds:
 //! [`shadowlab_core::backprojection::fraction_above`]), combined with the contour's fraction by the
 //! minimum; the receiver's plane (receiver-plane depth bias, Isidoro 2006) is extrapolated only
-//! `plane_reach` texels, beyond which curved receivers leave it and it would hide real occluders; and
+//! `plane_reach` texels, beyond which curved receivers leave it and it would hide real occluders;
+//! nothing farther from the light than the receiver occludes it; the map holds the front faces; and
 //! `show` writes the class, the level, the kernel, or the contour's or the horizon's fraction alone
 //! instead of V, for analysis.
 //!
@@ -327,7 +331,7 @@ fn create(
 
 /// `ssm.wgsl`'s `setup_loops` and `ROUND_LOOPS`.
 fn setup_loops(iterations: f32) -> u32 {
-    10 * (iterations as u32 + 3) + 20 + 40
+    36 * (iterations as u32 + 3) + 20 + 40
 }
 
 /// The uniform's `extra` with its budget terms: x, the most loops of a pixel computed several to

@@ -43,7 +43,8 @@
 //! [`shadowlab_core::backprojection::fraction_above`]), combined with the contour's fraction by the
 //! minimum; the receiver's plane (receiver-plane depth bias, Isidoro 2006) is extrapolated only
 //! `plane_reach` texels, beyond which curved receivers leave it and it would hide real occluders;
-//! nothing farther from the light than the receiver occludes it; the map holds the front faces; and
+//! nothing farther from the light than the receiver occludes it, nor anything on or behind a
+//! rectangle light's plane (it emits on one side); the map holds the front faces; and
 //! `show` writes the class, the level, the kernel, or the contour's or the horizon's fraction alone
 //! instead of V, for analysis.
 //!

@@ -173,6 +173,13 @@ fn occluder_bounds(px: Pixel, half: f32, occluding: f32) -> Kernel {
             if (d.x <= px.z || max(near.x, near.y) > kh) {
                 continue;
             }
+            // A texel wholly behind a rectangle light's plane (a plane through the map's eye, so
+            // its corners' directions decide, at any depth): the ceiling beside the light.
+            let c0 = vec2<f32>(f32(x), f32(y)) * scale;
+            if (behind_emitter(px, c0, d.x) && behind_emitter(px, c0 + vec2<f32>(scale, 0.0), d.x)
+                && behind_emitter(px, c0 + vec2<f32>(0.0, scale), d.x) && behind_emitter(px, c0 + vec2<f32>(scale), d.x)) {
+                continue;
+            }
             out.half = max(out.half, min(kh, max(far.x, far.y)));
             out.bounds.nearest = max(out.bounds.nearest, d.x);
             if (d.x > occluding) {
@@ -221,6 +228,13 @@ struct Pixel {
     rt: vec4<f32>,
     rb: vec4<f32>,
     rm: vec4<f32>,
+    // A rectangle light's plane: (X, W) = rows · (st, depth, 1) give m·(q − c) = X / W for the point
+    // q stored there (c the emitter's centre). Nothing on or behind that plane (X / W ≥ 0) can
+    // hide any part of a one-sided emitter from a receiver it lights. `one_sided` is false for the
+    // other lights.
+    plane_row: vec4<f32>,
+    w_row: vec4<f32>,
+    one_sided: bool,
     // The occluder layer traced: samples whose stored depth d has cut_lo < d ≤ cut_hi (all of
     // them: −1, 2).
     cut_lo: f32,
@@ -304,6 +318,23 @@ fn emitter_row(inv: mat4x4<f32>, p: vec3<f32>, a: vec3<f32>) -> vec4<f32> {
     let r = transpose(inv) * vec4<f32>(a, -dot(p, a));
     let k = 2.0 / map_params.bias.z;
     return vec4<f32>(r.x * k, -r.y * k, r.z, r.w - r.x + r.y);
+}
+
+// The row of the unprojection's w: q_h.w as a function of (st, depth, 1), as `emitter_row`.
+fn unprojected_w(inv: mat4x4<f32>) -> vec4<f32> {
+    let r = transpose(inv) * vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    let k = 2.0 / map_params.bias.z;
+    return vec4<f32>(r.x * k, -r.y * k, r.z, r.w - r.x + r.y);
+}
+
+// Whether the point stored at level-0 texel position st with stored depth `depth` lies on or
+// behind a rectangle light's plane (`Pixel::plane_row`).
+fn behind_emitter(px: Pixel, st: vec2<f32>, depth: f32) -> bool {
+    if (!px.one_sided) {
+        return false;
+    }
+    let s = vec4<f32>(st, depth, 1.0);
+    return dot(px.plane_row, s) * sign(dot(px.w_row, s)) >= 0.0;
 }
 
 // ---- the normalised emitter domain: [−1, 1]² or the unit disk (cross2, square_corner: horizon.wgsl) ----
@@ -615,7 +646,8 @@ fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
 fn occludes(px: Pixel, l: Level, s: vec2<i32>) -> vec2<f32> {
     let d = nearest_at(l, s);
     let in_layer = d > px.cut_lo && d <= px.cut_hi;
-    return vec2<f32>(d, select(0.0, select(16.0, 1.0, in_layer), d > threshold(px, l, s)));
+    let blocks = d > threshold(px, l, s) && !behind_emitter(px, (vec2<f32>(s) + vec2<f32>(0.5)) * l.scale, d);
+    return vec2<f32>(d, select(0.0, select(16.0, 1.0, in_layer), blocks));
 }
 
 // Four samples' `occludes` as `block_edges` takes them: bit i, sample i occludes; bit 4 + i, it
@@ -921,6 +953,9 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.rt = emitter_row(inv, px.p, px.t);
     px.rb = emitter_row(inv, px.p, px.b);
     px.rm = emitter_row(inv, px.p, px.m);
+    px.one_sided = light_kind(light) == LIGHT_RECT;
+    px.plane_row = emitter_row(inv, light.position.xyz, px.m);
+    px.w_row = unprojected_w(inv);
     px.cut_lo = -1.0;
     px.cut_hi = 2.0;
     if (!px.hard) {

@@ -137,12 +137,13 @@ fn hsm_bounds(view: u32, lo: vec2<f32>, hi: vec2<f32>, occluding: f32) -> Bounds
 // within its own kernel of the receiver (`kernel_half` from its depth is exactly how far from the
 // receiver, on the map, a sample at that depth back-projects inside the emitter: Eq. 1 read per
 // texel), so a texel whose nearest depth is no nearer than the receiver, or whose closest point is
-// beyond the kernel of that depth, is left out. The pyramid level is the one whose texels are at
-// least a quarter of the square wide (at most 5 × 5 texels read: with 3 × 3 of half its width, the
-// kernels came out wider, bunny `azri` penumbra RMSE 0.124 against 0.116, and no cheaper). `half` of the result: how far from the
-// receiver the texels counted can matter (the square's half at most). Walls that meet the
-// emitter's plane beside it (a Cornell box's, under its ceiling light) are near the light, and
-// Eq. 1 on the square's nearest depth alone spread every kernel over the whole map.
+// beyond the kernel of that depth, is left out, and so is one wholly behind a rectangle light's
+// plane. The pyramid level is the one whose texels are at least a quarter of the square wide (at
+// most 5 × 5 texels read: with 3 × 3 of half its width the kernels came out wider, bunny `azri`
+// penumbra RMSE 0.124 against 0.116, and no cheaper). `half` of the result: how far from the
+// receiver the texels counted can matter (the square's half at most). Eq. 1 on the nearest depth
+// of the 2 × 2 coarse texels that covered the square let one occluder near the light anywhere in
+// them (the board over the room's accent lamp) spread every kernel around it.
 struct Kernel {
     half: f32,
     bounds: Bounds,

@@ -666,12 +666,12 @@ mod tests {
     /// Two occluder layers that meet: each layer's contour, with the other's samples as `cut`, covers its
     /// side of the border, so the two cover the block together wherever no background sample is in it,
     /// whatever `t` (but a checkerboard of the two); elsewhere they never overlap and leave at most half
-    /// the block. Without the cut
-    /// rule, at t = 1 (coarse levels) both shrink to their centres and leave the whole block uncovered.
+    /// the block. Without the cut rule, at t = 1 (coarse levels) both shrink to their centres and leave
+    /// the whole block uncovered.
     #[test]
     fn layer_contours_tile_across_the_cut() {
-        // Area on the left of a block's edges, inside the block: the shoelace sum of the closed outline
-        // the edges make with the block's border, taken as the cover of a fine grid of points.
+        // The fraction of the block inside a layer's contour, from a 64² grid of points and the same rule
+        // as `centre_inside` (left of an edge; a contour shrunk to a point: most samples occlude).
         let cover = |mask: u8, cut: u8, t: f32| {
             let (edges, n) = layer_block_edges(mask, cut, t);
             let mut inside = 0;

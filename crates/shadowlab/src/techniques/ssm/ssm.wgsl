@@ -202,8 +202,10 @@ struct Pixel {
     p: vec3<f32>,
     n: vec3<f32>,
     view: u32,
-    // The receiver's position on the map (level-0 texels) and stored-depth scale depth.
+    // The receiver's biased point on the map (level-0 texels) and stored-depth scale depth.
     st: vec2<f32>,
+    // The receiver itself on the map (level-0 texels): the emitter's centre's hard test.
+    sc: vec2<f32>,
     z: f32,
     // Receiver-plane depth gradient per texel (Isidoro 2006), and |g|₁.
     g: vec2<f32>,
@@ -762,8 +764,9 @@ fn layer_empty(px: Pixel, level: u32) -> bool {
 fn visibility_at(px: Pixel, level: u32) -> f32 {
     let l = level_of(px, level);
     let t = select(ssm.contour.y, ssm.contour.x, level == 0u);
-    // The receiver in sample coordinates of the level (sample (i, j) at (i, j)).
-    let q = px.st / l.scale - vec2<f32>(0.5);
+    // The receiver in sample coordinates of the level (sample (i, j) at (i, j)); a point light's
+    // hard test is the map lookup's, at the biased point.
+    let q = select(px.sc, px.st, px.hard) / l.scale - vec2<f32>(0.5);
     // The light's centre: inside or outside the contour of the block around q.
     let cell = vec2<i32>(floor(q));
     let inside = centre_inside(mask_at(px, l, cell), t, q - (vec2<f32>(cell) + vec2<f32>(0.5)));
@@ -944,6 +947,11 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.n = s.n;
     px.view = mp.layer;
     px.st = mp.uvz.xy * map_params.bias.z;
+    // The hard test of the emitter's centre (`centre_inside`) is made where the receiver itself
+    // projects, not its biased point: the back-projected edges are seen from the receiver, and a
+    // contour passing between the two points would count half the emitter twice or not at all
+    // (V 0.5 read as 0 or 1).
+    px.sc = shadow_project(shadow_views[mp.layer], s.p).xy * map_params.bias.z;
     px.z = mp.uvz.z;
     px.g = receiver_plane_gradient(mp, s.p, geometric_normal(pixel, s.n));
     px.g1 = abs(px.g.x) + abs(px.g.y);

@@ -122,6 +122,16 @@ pub fn block_edges(mask: u8, t: f32) -> ([ContourEdge; 2], usize) {
 /// them that neither covers. Only a block that also holds background keeps a gap (at most half of it,
 /// where marching squares' cases for the layers differ from the union's; `layer_contours_tile_across_the_cut`).
 pub fn layer_block_edges(mask: u8, cut: u8, t: f32) -> ([ContourEdge; 2], usize) {
+    coarse_block_edges(mask, cut, 0, t)
+}
+
+/// [`layer_block_edges`] at a coarse pyramid level (ours): bit i of `full` is set when sample i occludes
+/// with all the finer texels it covers (its farthest depth occludes too, not only its nearest). Where
+/// such a sample meets background the occluder's edge is the texel border itself, so the endpoint sits
+/// there (t = 0); `t` (t = 1 at coarse levels, §5.1) places only the edges of partly occluding samples,
+/// whose occluder ends somewhere inside them. Without it an occluder's border that falls on a coarse
+/// texel's border is eroded by half that texel (`full_coarse_samples_keep_their_border`).
+pub fn coarse_block_edges(mask: u8, cut: u8, full: u8, t: f32) -> ([ContourEdge; 2], usize) {
     let mask = mask & 0xF;
     let mut edges = [ContourEdge::NONE; 2];
     if mask == 0x0 || mask == 0xF {
@@ -129,7 +139,7 @@ pub fn layer_block_edges(mask: u8, cut: u8, t: f32) -> ([ContourEdge; 2], usize)
     }
     let f = (1.0 - if t.is_nan() { 0.0 } else { t.clamp(-1.0, 1.0) }) * 0.5;
     let endpoint = |o: u8, b: u8| {
-        let f = if cut >> (b & 3) & 1 == 1 { 0.5 } else { f };
+        let f = if cut >> (b & 3) & 1 == 1 || full >> (o & 3) & 1 == 1 { 0.5 } else { f };
         sample_centre(o) + f * (sample_centre(b) - sample_centre(o))
     };
     let [oa, ba, ob, bb] = EDGE_RULES[mask as usize];
@@ -706,6 +716,42 @@ mod tests {
                 assert!(cover(a, 0, 1.0) + cover(b, 0, 1.0) < 1e-6, "without the rule {a:#x}");
             }
         }
+    }
+
+    #[test]
+    fn full_coarse_samples_keep_their_border() {
+        // One row of a level-2 pyramid (a coarse texel covers 4 fine ones) over an occluder that covers
+        // the first n fine texels: the contour between the last occluding coarse sample and the first
+        // free one, at t = 1, against the finest level's border at n (fine texels).
+        const FINE: usize = 4;
+        let error = |n: usize, rule: bool| {
+            let k = (n - 1) / FINE; // the last coarse texel holding an occluding fine texel
+            let full = if rule && n.is_multiple_of(FINE) { 0b1001 } else { 0 };
+            // Samples 0 and 3 (the left column, coarse texel k) occlude; 1 and 2 (k + 1) do not.
+            let (edges, count) = coarse_block_edges(0b1001, 0, full, 1.0);
+            assert_eq!(count, 1);
+            assert!((edges[0].a.x - edges[0].b.x).abs() < 1e-6, "a vertical edge");
+            // Block frame: the samples' centres at x = ∓½, i.e. fine positions FINE·(k + ½) and FINE·(k + 1½).
+            let x = FINE as f32 * (k as f32 + 1.0 + edges[0].a.x);
+            (x - n as f32).abs()
+        };
+        let ns = 1..=8 * FINE;
+        let (mut with, mut without) = (0.0, 0.0);
+        for n in ns.clone() {
+            let (e, e0) = (error(n, true), error(n, false));
+            // Within half a coarse texel of the border either way; on it where the occluder ends on a
+            // coarse border.
+            assert!(e <= 0.5 * FINE as f32 + 1e-5, "n {n}: {e}");
+            if n.is_multiple_of(FINE) {
+                assert!(e < 1e-5, "n {n}: {e} (without the rule {e0})");
+            }
+            with += e;
+            without += e0;
+        }
+        let count = ns.count() as f32;
+        // Mean error over the occluder's 4 phases: ½ fine texel with the rule, 1 without (exact: the
+        // partial phases are 1, 0, 1 off and the full one 0 with it, 2 without).
+        assert!((with / count - 0.5).abs() < 1e-5 && (without / count - 1.0).abs() < 1e-5, "{with} {without}");
     }
 
     type Poly = Vec<[f64; 2]>;

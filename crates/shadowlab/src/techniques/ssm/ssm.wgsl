@@ -489,24 +489,26 @@ struct BlockEdges {
 // between occluder `hb` and sample `b_to`, its ends holding those occluders' depths.
 fn one_edge(ha: u32, a_to: u32, hb: u32, b_to: u32, t: f32, cut: u32) -> BlockEdges {
     var e: BlockEdges;
-    e.a0 = crossing(ha, a_to, crossing_t(a_to, t, cut));
-    e.b0 = crossing(hb, b_to, crossing_t(b_to, t, cut));
+    e.a0 = crossing(ha, a_to, crossing_t(ha, a_to, t, cut));
+    e.b0 = crossing(hb, b_to, crossing_t(hb, b_to, t, cut));
     e.ha0 = ha;
     e.hb0 = hb;
     e.count = 1u;
     return e;
 }
 
-// The contour's t towards sample b: t, or 0 (the border) where b occludes too but lies in another
-// occluder layer (bit b of `cut`): that layer's contour has the same edge the other way round,
-// and both at the border leave neither a gap nor an overlap between them.
-fn crossing_t(b: u32, t: f32, cut: u32) -> f32 {
-    return select(t, 0.0, ((cut >> b) & 1u) != 0u);
+// The contour's t from occluder o towards sample b: t, or 0 (the border) where b occludes too but
+// lies in another occluder layer (bit b of `cut`): that layer's contour has the same edge the other
+// way round, and both at the border leave neither a gap nor an overlap between them. Also 0 where
+// o is a coarse sample that occludes with every finer texel it holds (bit 4 + o of `cut`): its
+// occluder ends on its border, which erosion (t = 1) would move in by half the texel.
+fn crossing_t(o: u32, b: u32, t: f32, cut: u32) -> f32 {
+    return select(t, 0.0, ((cut >> b) & 1u) != 0u || ((cut >> (4u + o)) & 1u) != 0u);
 }
 
 // The marching-squares rule of a block with occluder mask `mask` (bit i: sample i occludes): up to
-// two edges, the occluder on their left. shadowlab_core::backprojection::layer_block_edges is the same
-// table (`code`: bits 0–3 the mask, 4–7 the samples in another layer).
+// two edges, the occluder on their left. shadowlab_core::backprojection::coarse_block_edges is the same
+// table (`code`: bits 0–3 the mask, 4–7 the samples in another layer, 8–11 those occluding in full).
 fn block_edges(code: u32, t: f32) -> BlockEdges {
     let mask = code & 15u;
     let cut = code >> 4u;
@@ -528,8 +530,8 @@ fn block_edges(code: u32, t: f32) -> BlockEdges {
         // One occluder at i (and its diagonal twin for 0x5, 0xA).
         e = one_edge(i, i1, i, i3, t, cut);
         if (r == 5u) {
-            e.a1 = crossing(i2, i3, crossing_t(i3, t, cut));
-            e.b1 = crossing(i2, i1, crossing_t(i1, t, cut));
+            e.a1 = crossing(i2, i3, crossing_t(i2, i3, t, cut));
+            e.b1 = crossing(i2, i1, crossing_t(i2, i1, t, cut));
             e.ha1 = i2;
             e.hb1 = i2;
             e.count = 2u;
@@ -609,20 +611,21 @@ fn map_texel(t: vec2<i32>, layer: i32) -> f32 {
 }
 // #endif
 
-// The nearest stored depth of sample s of the level (off the map as `hsm_texel`: nothing occludes
-// there, but past a cube face's edge its edge texels extend).
-fn nearest_at(l: Level, s_in: vec2<i32>) -> f32 {
+// The (nearest, farthest) stored depth of sample s of the level (off the map as `hsm_texel`: nothing
+// occludes there, but past a cube face's edge its edge texels extend).
+fn depths_at(l: Level, s_in: vec2<i32>) -> vec2<f32> {
     var s = s_in;
     if (any(s < vec2<i32>(0)) || any(s >= vec2<i32>(l.side))) {
         if (map_params.bias.w < 0.5) {
-            return 0.0;
+            return vec2<f32>(0.0);
         }
         s = clamp(s, vec2<i32>(0), vec2<i32>(l.side - 1));
     }
     if (l.level == 0u) {
-        return map_texel(s, l.layer);
+        let d = map_texel(s, l.layer);
+        return vec2<f32>(d, d);
     }
-    return hsm[l.base + u32(s.y) * u32(l.side) + u32(s.x)].x;
+    return hsm[l.base + u32(s.y) * u32(l.side) + u32(s.x)];
 }
 
 // Whether sample s occludes the receiver: nearer the light than the receiver's plane there.
@@ -645,16 +648,20 @@ fn threshold(px: Pixel, l: Level, s: vec2<i32>) -> f32 {
     return max(px.z + dot(px.g, clamp(o + side, vec2<f32>(-reach), vec2<f32>(reach))), px.z);
 }
 
-// (stored depth, 1 if it occludes, 16 if it would but lies in another occluder layer) of sample s.
+// (stored depth, 1 if it occludes, 16 if it would but lies in another occluder layer) of sample s;
+// 257 (1 + 256) where a coarse sample occludes with its farthest depth too, every finer texel it
+// holds (`crossing_t`).
 fn occludes(px: Pixel, l: Level, s: vec2<i32>) -> vec2<f32> {
-    let d = nearest_at(l, s);
-    let in_layer = d > px.cut_lo && d <= px.cut_hi;
-    let blocks = d > threshold(px, l, s) && !behind_emitter(px, (vec2<f32>(s) + vec2<f32>(0.5)) * l.scale, d);
-    return vec2<f32>(d, select(0.0, select(16.0, 1.0, in_layer), blocks));
+    let d = depths_at(l, s);
+    let in_layer = d.x > px.cut_lo && d.x <= px.cut_hi;
+    let th = threshold(px, l, s);
+    let blocks = d.x > th && !behind_emitter(px, (vec2<f32>(s) + vec2<f32>(0.5)) * l.scale, d.x);
+    let full = l.level > 0u && d.y > max(th, px.cut_lo);
+    return vec2<f32>(d.x, select(0.0, select(16.0, select(1.0, 257.0, full), in_layer), blocks));
 }
 
 // Four samples' `occludes` as `block_edges` takes them: bit i, sample i occludes; bit 4 + i, it
-// lies in another layer.
+// lies in another layer; bit 8 + i, it occludes in full.
 fn block_code(o0: f32, o1: f32, o2: f32, o3: f32) -> u32 {
     return u32(o0) | (u32(o1) << 1u) | (u32(o2) << 2u) | (u32(o3) << 3u);
 }

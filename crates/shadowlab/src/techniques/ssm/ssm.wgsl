@@ -60,6 +60,15 @@ struct Work {
 // 1 where the camera's depth or normal is discontinuous.
 @group(2) @binding(5) var<storage, read_write> flags: array<u32>;
 
+// The emitter's shape, fixed per pipeline (`ssm::EmitterShape`): a rectangle light's square, one-
+// sided, or the disk of a sphere light or the sun. Constant so that the shader holds one shape's
+// code: CPU adapters run both branches of a varying `if` (lavapipe: 12 % of the bunny's time).
+// #ifdef SQUARE_EMITTER
+const DISK: bool = false;
+// #else
+const DISK: bool = true;
+// #endif
+
 const LIT: u32 = 0u;
 const UMBRA: u32 = 1u;
 const PENUMBRA: u32 = 2u;
@@ -221,8 +230,6 @@ struct Pixel {
     m: vec3<f32>,
     t: vec3<f32>,
     b: vec3<f32>,
-    // 1 for a disk (sphere lights, the sun), 0 for a square (rectangles).
-    disk: bool,
     // +1 when the map's texel axes keep their orientation on the emitter, −1 when mirrored.
     flip: f32,
     // A zero-size emitter: the contour's hard shadow.
@@ -233,11 +240,9 @@ struct Pixel {
     rm: vec4<f32>,
     // A rectangle light's plane: (X, W) = rows · (st, depth, 1) give m·(q − c) = X / W for the point
     // q stored there (c the emitter's centre). Nothing on or behind that plane (X / W ≥ 0) can
-    // hide any part of a one-sided emitter from a receiver it lights. `one_sided` is false for the
-    // other lights.
+    // hide any part of a one-sided emitter (the square, `DISK` false) from a receiver it lights.
     plane_row: vec4<f32>,
     w_row: vec4<f32>,
-    one_sided: bool,
     // The occluder layer traced: samples whose stored depth d has cut_lo < d ≤ cut_hi (all of
     // them: −1, 2).
     cut_lo: f32,
@@ -283,7 +288,6 @@ fn set_emitter(px: ptr<function, Pixel>) {
         (*px).b = bitangent / half.y;
         (*px).k = dot(c - p, (*px).m);
         (*px).base = vec2<f32>(dot(p - c, (*px).t), dot(p - c, (*px).b));
-        (*px).disk = false;
         (*px).hard = (*px).hard || min(light.cone.z, light.cone.w) <= 0.0;
         return;
     }
@@ -299,7 +303,6 @@ fn set_emitter(px: ptr<function, Pixel>) {
     let u = basis_u((*px).m);
     (*px).t = u / r;
     (*px).b = cross((*px).m, u) / r;
-    (*px).disk = true;
 }
 
 // The emitter coordinates of the point stored at level-0 texel position st with stored depth `depth`,
@@ -333,7 +336,7 @@ fn unprojected_w(inv: mat4x4<f32>) -> vec4<f32> {
 // Whether the point stored at level-0 texel position st with stored depth `depth` lies on or
 // behind a rectangle light's plane (`Pixel::plane_row`).
 fn behind_emitter(px: Pixel, st: vec2<f32>, depth: f32) -> bool {
-    if (!px.one_sided) {
+    if (DISK) {
         return false;
     }
     let s = vec4<f32>(st, depth, 1.0);
@@ -343,9 +346,9 @@ fn behind_emitter(px: Pixel, st: vec2<f32>, depth: f32) -> bool {
 // ---- the normalised emitter domain: [−1, 1]² or the unit disk (cross2, square_corner: horizon.wgsl) ----
 
 // The parameter range (t0, t1) of segment a + s(b − a) inside the domain; empty when t0 ≥ t1.
-fn clip_range(disk: bool, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+fn clip_range(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
     let d = b - a;
-    if (disk) {
+    if (DISK) {
         let qa = dot(d, d);
         let qb = dot(a, d);
         let qc = dot(a, a) - 1.0;
@@ -397,14 +400,14 @@ fn take_corner(i: i32, a: vec2<f32>, b: vec2<f32>, first: ptr<function, i32>, se
 }
 
 // Area of the domain inside the wedge from the centre between the directions of a and b (< π).
-fn sector_area(disk: bool, a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
+fn sector_area(a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
     var a = a_in;
     var b = b_in;
     if (cross2(a, b) < 0.0) {
         a = b_in;
         b = a_in;
     }
-    if (disk) {
+    if (DISK) {
         return 0.5 * atan2(abs(cross2(a, b)), dot(a, b));
     }
     // A fan over the rim: a's rim point, the corners inside the wedge in turn, b's rim point.
@@ -434,16 +437,16 @@ fn sector_area(disk: bool, a_in: vec2<f32>, b_in: vec2<f32>) -> f32 {
     return 0.5 * area;
 }
 
-fn domain_area(disk: bool) -> f32 {
-    return select(4.0, 3.14159265, disk);
+fn domain_area() -> f32 {
+    return select(4.0, 3.14159265, DISK);
 }
 
 // The signed part of the emitter an edge a → b (occluder on its left) hides or reveals beyond
 // itself, seen from the centre (§4.2, as penumbra wedges integrate; NOTES-002 "self-consistent
 // formulation"): + where the occluder ends there (the edge turns counter-clockwise about the
 // centre), − where it begins.
-fn edge_area(disk: bool, a: vec2<f32>, b: vec2<f32>) -> f32 {
-    let r = clip_range(disk, a, b);
+fn edge_area(a: vec2<f32>, b: vec2<f32>) -> f32 {
+    let r = clip_range(a, b);
     if (r.y - r.x <= 1.0e-7) {
         return 0.0;
     }
@@ -453,7 +456,7 @@ fn edge_area(disk: bool, a: vec2<f32>, b: vec2<f32>) -> f32 {
     if (abs(c) < 1.0e-12) {
         return 0.0;
     }
-    let beyond = max(sector_area(disk, a2, b2) - 0.5 * abs(c), 0.0);
+    let beyond = max(sector_area(a2, b2) - 0.5 * abs(c), 0.0);
     return sign(c) * beyond;
 }
 
@@ -683,10 +686,10 @@ fn holder_depth(h: u32, d: vec4<f32>) -> f32 {
 fn edge_term(px: Pixel, l: Level, a: vec2<f32>, da: f32, b: vec2<f32>, db: f32) -> f32 {
     let la = emitter_at(px, (a + vec2<f32>(0.5)) * l.scale, da);
     let lb = emitter_at(px, (b + vec2<f32>(0.5)) * l.scale, db);
-    if (px.flip > 0.0) {
-        return edge_area(px.disk, la, lb);
-    }
-    return edge_area(px.disk, lb, la);
+    // The ends swapped where the map mirrors the emitter: selected, not branched, since a CPU
+    // adapter would run `edge_area` on both branches (`DISK`).
+    let mirrored = px.flip <= 0.0;
+    return edge_area(select(la, lb, mirrored), select(lb, la, mirrored));
 }
 
 // The edges' terms of the blocks with lower-left sample (i, j), i in [i0, i1], in row j.
@@ -777,7 +780,7 @@ fn visibility_at(px: Pixel, level: u32) -> f32 {
     // The light's centre: inside or outside the contour of the block around q.
     let cell = vec2<i32>(floor(q));
     let inside = centre_inside(mask_at(px, l, cell), t, q - (vec2<f32>(cell) + vec2<f32>(0.5)));
-    let area = domain_area(px.disk);
+    let area = domain_area();
     var v = select(area, 0.0, inside);
     if (px.hard) {
         return v / area;
@@ -969,7 +972,6 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.rt = emitter_row(inv, px.p, px.t);
     px.rb = emitter_row(inv, px.p, px.b);
     px.rm = emitter_row(inv, px.p, px.m);
-    px.one_sided = light_kind(light) == LIGHT_RECT;
     px.plane_row = emitter_row(inv, light.position.xyz, px.m);
     px.w_row = unprojected_w(inv);
     px.cut_lo = -1.0;

@@ -451,8 +451,9 @@ impl Screen {
         }
         let pixels = u64::from(width) * u64::from(height);
         let vbuf = storage(device, "ssm v-buffer", u64::from(offset) * 8, wgpu::BufferUsages::empty());
-        // The front of the list from slot 0 up, the heavy pixels from the last slot down.
-        let list = storage(device, "ssm list", pixels * 4, wgpu::BufferUsages::empty());
+        // The front of the list from slot 0 up, the heavy pixels from the last slot down; behind
+        // the slots, each pixel's setup as `classify` found it (`ssm.wgsl`, `record`: 4 words).
+        let list = storage(device, "ssm list", pixels * 4 * 5, wgpu::BufferUsages::empty());
         let flags = storage(device, "ssm discontinuities", pixels * 4, wgpu::BufferUsages::empty());
         let work = storage(device, "ssm work", 16, wgpu::BufferUsages::empty());
         // Two indirect dispatches: `visibility`'s at 0, `heavy`'s at 12.

@@ -938,19 +938,16 @@ fn lod_blend(lambda: f32, beta: f32, top: u32) -> vec3<f32> {
     return vec3<f32>(f32(lod), f32(lod), 0.0);
 }
 
-fn setup(pixel: vec2<u32>) -> Setup {
-    var out: Setup;
-    out.kind = LIT;
-    out.horizon = 1.0;
-    out.layers = 1u;
-    out.finer = 0u;
+// The receiver at `pixel` on the map, with its emitter's frame (no loops): false where the pixel
+// shows nothing relevant or falls off the map.
+fn receiver(pixel: vec2<u32>, out: ptr<function, Pixel>) -> bool {
     let s = load_surface(pixel);
     if (!s.relevant) {
-        return out;
+        return false;
     }
     let mp = map_point(s.p, s.n, light_vector(light, s.p).xyz, 0u);
     if (!mp.on_map) {
-        return out;
+        return false;
     }
     var px: Pixel;
     px.p = s.p;
@@ -976,6 +973,21 @@ fn setup(pixel: vec2<u32>) -> Setup {
     px.w_row = unprojected_w(inv);
     px.cut_lo = -1.0;
     px.cut_hi = 2.0;
+    *out = px;
+    return true;
+}
+
+fn setup(pixel: vec2<u32>) -> Setup {
+    var out: Setup;
+    out.kind = LIT;
+    out.horizon = 1.0;
+    out.layers = 1u;
+    out.finer = 0u;
+    var px: Pixel;
+    if (!receiver(pixel, &px)) {
+        return out;
+    }
+    let view = shadow_views[px.view];
     if (!px.hard) {
         // The receiver's own horizon, on its facet (horizon.wgsl).
         out.horizon = light_horizon(light, px.p, geometric_normal(pixel, px.n));
@@ -1198,6 +1210,7 @@ fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     if (selected) {
         vbuf[i] = vec2<f32>(0.0, 1.0);
+        record(i, s);
         if (loop_budget() > 0u && pixel_loops(s) > u32(ssm.extra.x)) {
             list[last_slot() - atomicAdd(&work.heavy, 1u)] = i;
         } else {
@@ -1206,6 +1219,38 @@ fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
     } else {
         vbuf[i] = vec2<f32>(0.0, 0.0);
     }
+}
+
+// Behind the list's slots (one per pixel), four words per pixel (by pixel index): what
+// `classify`'s `setup` found for a listed pixel, so that `visibility` does not search its kernel
+// again: the kernel's half-width, the levels and layers, the blend weight, the horizon. (In the
+// list's buffer: a binding of its own would pass WebGPU's 8 storage buffers per stage.)
+fn record(i: u32, s: Setup) {
+    let at = last_slot() + 1u + 4u * i;
+    list[at] = bitcast<u32>(s.px.half);
+    list[at + 1u] = s.lod | (s.other << 8u) | (s.layers << 16u) | (s.finer << 24u);
+    list[at + 2u] = bitcast<u32>(s.w);
+    list[at + 3u] = bitcast<u32>(s.horizon);
+}
+
+// The setup of listed pixel `i` at `pixel`: its receiver again (no loops), the rest as `classify`
+// recorded it.
+fn restored(pixel: vec2<u32>, i: u32) -> Setup {
+    var out: Setup;
+    let at = last_slot() + 1u + 4u * i;
+    let r = vec4<u32>(list[at], list[at + 1u], list[at + 2u], list[at + 3u]);
+    out.kind = PENUMBRA;
+    var px: Pixel;
+    _ = receiver(pixel, &px);
+    px.half = bitcast<f32>(r.x);
+    out.px = px;
+    out.lod = r.y & 255u;
+    out.other = (r.y >> 8u) & 255u;
+    out.layers = (r.y >> 16u) & 255u;
+    out.finer = r.y >> 24u;
+    out.w = bitcast<f32>(r.z);
+    out.horizon = bitcast<f32>(r.w);
+    return out;
 }
 
 fn pixel_at(i: u32) -> vec2<u32> {
@@ -1282,7 +1327,7 @@ fn visibility(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     var j = 0u;
     for (var k = id.x; k < count && j < per; k = k + stride) {
         let i = list[k];
-        listed(setup(pixel_at(i)), i);
+        listed(restored(pixel_at(i), i), i);
         j = j + 1u;
     }
 }
@@ -1292,6 +1337,6 @@ fn visibility(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
 fn heavy(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x < atomicLoad(&work.heavy)) {
         let i = list[last_slot() - id.x];
-        listed(setup(pixel_at(i)), i);
+        listed(restored(pixel_at(i), i), i);
     }
 }

@@ -15,30 +15,53 @@ struct Reduce {
 @group(2) @binding(0) var<uniform> reduce: Reduce;
 @group(2) @binding(1) var<storage, read_write> hsm: array<vec2<f32>>;
 
-fn source(view: u32, t: vec2<u32>) -> vec2<f32> {
-    if (reduce.src.x == 0u) {
-        let d = stored_depth(vec2<i32>(t), view);
-        return vec2<f32>(d, d);
-    }
-    return hsm[view * reduce.dst.w + reduce.src.y + t.y * reduce.src.z + t.x];
+// #ifdef HARDWARE_COMPARE
+fn map_texel(t: vec2<i32>, layer: i32) -> f32 {
+    return textureLoad(shadow_maps, t, layer, 0);
+}
+// #else
+fn map_texel(t: vec2<i32>, layer: i32) -> f32 {
+    return textureLoad(shadow_maps, t, layer, 0).r;
+}
+// #endif
+
+fn store(view: u32, id: vec2<u32>, a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, d: vec2<f32>) {
+    let nearest = max(max(a.x, b.x), max(c.x, d.x));
+    let farthest = min(min(a.y, b.y), min(c.y, d.y));
+    hsm[view * reduce.dst.w + reduce.dst.y + id.y * reduce.dst.z + id.x] = vec2<f32>(nearest, farthest);
 }
 
+// Level 1 from the map. Each entry point reads its four texels written out, with no branch on the
+// level: a CPU adapter would run both sides of one (ssm.wgsl, `DISK`). A texel past an odd side
+// repeats the last, which neither bound changes.
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let side = reduce.dst.z;
-    if (id.x >= side || id.y >= side) {
+fn from_map(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= reduce.dst.z || id.y >= reduce.dst.z) {
         return;
     }
-    let view = id.z;
-    var out = vec2<f32>(0.0, 1.0);
-    for (var dy = 0u; dy < 2u; dy = dy + 1u) {
-        for (var dx = 0u; dx < 2u; dx = dx + 1u) {
-            let t = 2u * id.xy + vec2<u32>(dx, dy);
-            if (t.x < reduce.src.z && t.y < reduce.src.z) {
-                let d = source(view, t);
-                out = vec2<f32>(max(out.x, d.x), min(out.y, d.y));
-            }
-        }
+    let layer = view_layer(id.z);
+    let last = vec2<i32>(i32(reduce.src.z) - 1);
+    let t = vec2<i32>(2u * id.xy);
+    let a = map_texel(t, layer);
+    let b = map_texel(min(t + vec2<i32>(1, 0), last), layer);
+    let c = map_texel(min(t + vec2<i32>(0, 1), last), layer);
+    let d = map_texel(min(t + vec2<i32>(1, 1), last), layer);
+    store(id.z, id.xy, vec2<f32>(a), vec2<f32>(b), vec2<f32>(c), vec2<f32>(d));
+}
+
+// Each further level from the last.
+@compute @workgroup_size(8, 8)
+fn from_level(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= reduce.dst.z || id.y >= reduce.dst.z) {
+        return;
     }
-    hsm[view * reduce.dst.w + reduce.dst.y + id.y * side + id.x] = out;
+    let base = id.z * reduce.dst.w + reduce.src.y;
+    let side = reduce.src.z;
+    let t = 2u * id.xy;
+    let u = min(t + vec2<u32>(1u), vec2<u32>(side - 1u));
+    let a = hsm[base + t.y * side + t.x];
+    let b = hsm[base + t.y * side + u.x];
+    let c = hsm[base + u.y * side + t.x];
+    let d = hsm[base + u.y * side + u.x];
+    store(id.z, id.xy, a, b, c, d);
 }

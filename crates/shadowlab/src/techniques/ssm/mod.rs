@@ -224,6 +224,8 @@ struct Screen {
 }
 
 struct Pipelines {
+    /// The pyramid's level 1 from the map, and each further level from the last.
+    reduce_map: wgpu::ComputePipeline,
     reduce: wgpu::ComputePipeline,
     edges: wgpu::ComputePipeline,
     classify: wgpu::ComputePipeline,
@@ -311,7 +313,8 @@ fn pipelines(shared: &Shared, shape: EmitterShape) -> Pipelines {
     let filled =
         |entry: &str| shared.resolve_pipeline(&format!("ssm {entry}"), fill, entry, &[&lookup, &own, &level], &[]);
     Pipelines {
-        reduce: shared.resolve_pipeline("ssm reduce", include_str!("hsm.wgsl"), "main", &[&lookup, &level], &[]),
+        reduce_map: shared.resolve_pipeline("ssm reduce map", include_str!("hsm.wgsl"), "from_map", &[&lookup, &level], &[]),
+        reduce: shared.resolve_pipeline("ssm reduce", include_str!("hsm.wgsl"), "from_level", &[&lookup, &level], &[]),
         edges: main("edges"),
         classify: main("classify"),
         visibility: main("visibility"),
@@ -532,11 +535,11 @@ impl Ssm {
             label: Some("ssm pyramid"),
             timestamp_writes: timestamps,
         });
-        pass.set_pipeline(&self.pipelines.reduce);
         pass.set_bind_group(0, Some(group0), &[]);
         pass.set_bind_group(1, Some(lookup), &[]);
         for (l, group) in pyramid.reduce.iter().enumerate() {
             let side = pyramid.levels[l + 1].1;
+            pass.set_pipeline(if l == 0 { &self.pipelines.reduce_map } else { &self.pipelines.reduce });
             pass.set_bind_group(2, Some(group), &[]);
             pass.dispatch_workgroups(side.div_ceil(8), side.div_ceil(8), pyramid.views);
         }

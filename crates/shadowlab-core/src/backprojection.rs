@@ -735,6 +735,13 @@ mod tests {
             let x = FINE as f32 * (k as f32 + 1.0 + edges[0].a.x);
             (x - n as f32).abs()
         };
+        // A saddle whose one corner occludes in full keeps that corner's edge (on the border) while
+        // the other's collapses at t = 1: one edge, held by the full sample.
+        for (mask, full) in [(0x5u8, 0b0001u8), (0x5, 0b0100), (0xA, 0b0010), (0xA, 0b1000)] {
+            let (edges, count) = coarse_block_edges(mask, 0, full, 1.0);
+            assert_eq!(count, 1, "saddle {mask:#x}, full {full:#b}");
+            assert_eq!(1 << edges[0].holder_a, full, "saddle {mask:#x}: the full corner's edge");
+        }
         let ns = 1..=8 * FINE;
         let (mut with, mut without) = (0.0, 0.0);
         for n in ns.clone() {

@@ -313,7 +313,13 @@ fn pipelines(shared: &Shared, shape: EmitterShape) -> Pipelines {
     let filled =
         |entry: &str| shared.resolve_pipeline(&format!("ssm {entry}"), fill, entry, &[&lookup, &own, &level], &[]);
     Pipelines {
-        reduce_map: shared.resolve_pipeline("ssm reduce map", include_str!("hsm.wgsl"), "from_map", &[&lookup, &level], &[]),
+        reduce_map: shared.resolve_pipeline(
+            "ssm reduce map",
+            include_str!("hsm.wgsl"),
+            "from_map",
+            &[&lookup, &level],
+            &[],
+        ),
         reduce: shared.resolve_pipeline("ssm reduce", include_str!("hsm.wgsl"), "from_level", &[&lookup, &level], &[]),
         edges: main("edges"),
         classify: main("classify"),

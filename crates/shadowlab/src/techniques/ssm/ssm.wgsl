@@ -548,9 +548,17 @@ fn block_edges(code: u32, t: f32) -> BlockEdges {
     }
     // A single occluder's corner (and a diagonal pair's) collapses to a point at t = 1. The
     // three-occluder edge at t = −1 is a point on the map too, but its ends hold two depths: it
-    // stays, a segment on the emitter.
+    // stays, a segment on the emitter. A saddle's corners collapse apart where one occludes in
+    // full (t = 0 there): the other's edge then stays, first.
+    let second = e.count == 2u && (length(e.b1 - e.a1) >= 1.0e-6 || e.ha1 != e.hb1);
     if (length(e.b0 - e.a0) < 1.0e-6 && e.ha0 == e.hb0) {
-        e.count = 0u;
+        e.a0 = e.a1;
+        e.b0 = e.b1;
+        e.ha0 = e.ha1;
+        e.hb0 = e.hb1;
+        e.count = select(0u, 1u, second);
+    } else if (!second) {
+        e.count = min(e.count, 1u);
     }
     return e;
 }

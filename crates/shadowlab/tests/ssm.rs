@@ -376,6 +376,32 @@ fn penumbra_error_on_the_bunny_is_below_pcss() {
     }
 }
 
+/// The check in the room: with all four lights (two lamps, the accent lamp under its
+/// board, the sun through the window), `ssm`'s penumbra error pooled over the lights, as `compare`
+/// reports it, is below `pcss`'s.
+#[test]
+fn penumbra_error_in_the_room_is_below_pcss() {
+    let gpu = gpu();
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let lights: Vec<LightId> = (0..scene.lights.len() as u32).map(LightId).collect();
+    let ssm = render(&gpu, &scene, &view, 128, "ssm", &lights);
+    let pcss = render(&gpu, &scene, &view, 128, "pcss", &lights);
+    let (mut e_ssm, mut e_pcss) = (ErrorStats::default(), ErrorStats::default());
+    for &light in &lights {
+        let truth = reference(&scene, &ssm.surface, light, 256);
+        e_ssm.merge(&ErrorStats::compare(&ssm.visibility(light), &truth));
+        e_pcss.merge(&ErrorStats::compare(&pcss.visibility(light), &truth));
+    }
+    let (e_ssm, e_pcss) = (e_ssm.penumbra_rmse().unwrap(), e_pcss.penumbra_rmse().unwrap());
+    println!("room: penumbra RMSE ssm {e_ssm:.4}, pcss {e_pcss:.4}");
+    // Measured at 128² (256 reference samples): 0.0643 against 0.0675 (0.95 ×; 0.0678 at `t_k=8`;
+    // 0.0723 with the emitter's centre tested at the biased point, 0.0803 before both fixes of
+    // `the_normal_offset_leaves_the_penumbra_in_place` and `an_occluder_ending_on_a_coarse_border_keeps_it`).
+    // Bound: below `pcss`, the issue's.
+    assert!(e_ssm < e_pcss, "ssm {e_ssm} vs pcss {e_pcss}");
+}
+
 /// A receiver in the map (front faces, `ssm`'s default) at a crease: where `columns`' ceiling
 /// meets the end wall, the wall faces lamp 0 squarely, so beside the ceiling's pixels the map
 /// holds the wall at the ceiling's own depth, nearer the light than the ceiling's plane extended

@@ -239,8 +239,8 @@ struct Pipelines {
 }
 
 /// The emitter's normalised domain, compiled into `ssm.wgsl`'s pipelines (`DISK`): a CPU adapter
-/// runs both branches of an `if` that varies, so one shape's code runs faster than both (lavapipe:
-/// the bunny's rectangle light 141 → 124 ms).
+/// runs both branches of an `if` that varies, so one shape's code runs faster than both (lavapipe,
+/// alternated runs with the select in `edge_term`: the bunny's rectangle light 146–159 → 121–122 ms).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum EmitterShape {
     /// A rectangle light: [−1, 1]², one-sided.

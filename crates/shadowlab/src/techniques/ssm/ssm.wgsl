@@ -782,8 +782,8 @@ fn layer_empty(px: Pixel, level: u32) -> bool {
 fn visibility_at(px: Pixel, level: u32) -> f32 {
     let l = level_of(px, level);
     let t = select(ssm.contour.y, ssm.contour.x, level == 0u);
-    // The receiver in sample coordinates of the level (sample (i, j) at (i, j)); a point light's
-    // hard test is the map lookup's, at the biased point.
+    // The receiver in sample coordinates of the level (sample (i, j) at (i, j)); a zero-size
+    // emitter's hard test is the map lookup's, at the biased point (as `hard`).
     let q = select(px.sc, px.st, px.hard) / l.scale - vec2<f32>(0.5);
     // The light's centre: inside or outside the contour of the block around q.
     let cell = vec2<i32>(floor(q));

@@ -289,13 +289,23 @@ fn own_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     })
 }
 
-/// Group 2 of `hsm.wgsl` and group 3 of `fill.wgsl`: a level uniform and one writable buffer.
+/// Group 2 of `hsm.wgsl` and group 3 of `fill.wgsl`: a level uniform, one writable buffer, and
+/// the nearest sampler (`hsm.wgsl`'s gathers).
 fn level_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     shared.layout("ssm level", || {
         let c = wgpu::ShaderStages::COMPUTE;
         shared.gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ssm level"),
-            entries: &[uniform_entry(0, c), storage_entry(1, c, false)],
+            entries: &[
+                uniform_entry(0, c),
+                storage_entry(1, c, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: c,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::NonFiltering),
+                    count: None,
+                },
+            ],
         })
     })
 }
@@ -404,6 +414,7 @@ fn level_group(shared: &Shared, label: &str, value: LevelUniform, target: &wgpu:
         entries: &[
             wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 1, resource: target.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&shared.nearest) },
         ],
     })
 }

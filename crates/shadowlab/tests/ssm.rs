@@ -450,3 +450,49 @@ fn a_ceiling_panel_is_not_hidden_by_its_ceiling() {
     // at `t_k=8`). Bound: no worse than `pcss`.
     assert!(e_ssm <= e_pcss, "ssm {e_ssm} vs pcss {e_pcss}");
 }
+
+/// Past about 6.7 million output pixels (4K) the list with every listed pixel's setup would outgrow
+/// a storage binding on CPU adapters and in browsers (128 MiB), and `visibility` sets each pixel up
+/// again instead (`records=off` forces it at any size): the same code, so the same image, bit for
+/// bit. (Returning the setup of the next pixel instead changed 1 428 of the room's pixel-lights.)
+#[test]
+fn pixels_set_up_again_give_the_same_image() {
+    let gpu = gpu();
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let lights: Vec<LightId> = (0..scene.lights.len() as u32).map(LightId).collect();
+    let kept = render(&gpu, &scene, &view, 96, "ssm", &lights);
+    let again = render(&gpu, &scene, &view, 96, "ssm:records=off", &lights);
+    let differ: usize = lights
+        .iter()
+        .map(|&l| {
+            let (a, b) = (kept.visibility(l), again.visibility(l));
+            a.iter().zip(&b).filter(|(x, y)| !(x.is_nan() && y.is_nan()) && x != y).count()
+        })
+        .sum();
+    assert_eq!(differ, 0, "{differ} pixel-lights differ with the setups made again");
+}
+
+/// A depth pyramid larger than a storage binding may hold is a clear error that names the largest
+/// map size that fits, not a failed binding: one 8192² view needs 171 MiB of levels, past the
+/// 128 MiB of CPU adapters and browsers (an adapter that binds more renders it).
+#[test]
+fn a_pyramid_past_the_binding_limit_is_a_clear_error() {
+    let gpu = gpu();
+    let (scene, _) = penumbra(0.5);
+    let view = scene.view("default").unwrap().clone();
+    let mut renderer = Renderer::new(&gpu, scene, &view, 32, 32);
+    renderer.set_technique(LightId(0), &TechniqueSpec::parse("ssm:map_size=8192", &[]).unwrap()).unwrap();
+    let limits = gpu.device.limits();
+    let limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+    // Levels 1… of one 8192² view: 4096² + 2048² + … + 1 texels of 8 bytes.
+    let needed: u64 = (0..13).map(|k| 1u64 << (2 * k)).sum::<u64>() * 8;
+    match renderer.render() {
+        Err(e) if needed > limit => {
+            let message = e.to_string();
+            assert!(message.contains("map_size=4096 or less"), "unclear: {message}");
+        }
+        Ok(_) if needed <= limit => {}
+        other => panic!("needed {needed} bytes against a limit of {limit}: {other:?}"),
+    }
+}

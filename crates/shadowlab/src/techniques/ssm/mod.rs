@@ -145,6 +145,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
         ),
         ParamDef::choice("pattern", "4", &["2", "4", "8"], "width of the selection pattern"),
         ParamDef::choice(
+            "records",
+            "auto",
+            &["auto", "off"],
+            "each listed pixel's setup kept from classify for visibility: auto, where the list then fits one storage binding (128 MiB on CPU adapters and in browsers: outputs up to about 6.7 million pixels); off, set up again (the same result, slower)",
+        ),
+        ParamDef::choice(
             "dispatch",
             "auto",
             &["auto", "indirect", "direct"],
@@ -210,6 +216,11 @@ struct Pyramid {
 struct Screen {
     width: u32,
     height: u32,
+    /// Whether the list holds each listed pixel's setup behind its slots (`ssm.wgsl`, `record`):
+    /// five words a pixel, which past about 6.7 million pixels (4K) outgrow the 128 MiB that a
+    /// storage binding may hold on CPU adapters and in browsers; without, `visibility` sets each
+    /// listed pixel up again (the same code: the same result, slower).
+    recorded: bool,
     /// Offset and size of each pull-push level (0: the output).
     levels: Vec<(u32, u32, u32)>,
     own: wgpu::BindGroup,
@@ -259,8 +270,10 @@ struct Ssm {
     params: ParamSet,
     map: Option<LightMap>,
     pipelines: Pipelines,
-    /// The shape `pipelines` were built for (a light replaced by one of another kind rebuilds them).
+    /// The shape `pipelines` were built for (a light replaced by one of another kind rebuilds them),
+    /// and whether they record each listed pixel's setup ([`Screen::recorded`]).
     shape: EmitterShape,
+    recorded: bool,
     uniform: wgpu::Buffer,
     values: SsmUniform,
     pyramid: Option<Pyramid>,
@@ -310,14 +323,19 @@ fn level_layout(shared: &Shared) -> wgpu::BindGroupLayout {
     })
 }
 
-fn pipelines(shared: &Shared, shape: EmitterShape) -> Pipelines {
+fn pipelines(shared: &Shared, shape: EmitterShape, recorded: bool) -> Pipelines {
     let (lookup, own, level) = (lookup_layout(shared), own_layout(shared), level_layout(shared));
     let ssm = include_str!("ssm.wgsl");
     let fill = include_str!("fill.wgsl");
-    let (suffix, defines): (&str, &[&str]) = match shape {
-        EmitterShape::Square => (" square", &["SQUARE_EMITTER"]),
-        EmitterShape::Disk => ("", &[]),
+    let (mut suffix, mut defines) = match shape {
+        EmitterShape::Square => (" square".to_string(), vec!["SQUARE_EMITTER"]),
+        EmitterShape::Disk => (String::new(), vec![]),
     };
+    if !recorded {
+        suffix.push_str(" unrecorded");
+        defines.push("UNRECORDED");
+    }
+    let defines = &defines[..];
     let main = |entry: &str| {
         shared.resolve_pipeline_with(&format!("ssm {entry}{suffix}"), ssm, entry, &[&lookup, &own], &[], defines)
     };
@@ -371,8 +389,9 @@ fn create(shared: &Shared, params: &ParamSet, light: &Light) -> Result<Box<dyn S
     Ok(Box::new(Ssm {
         params: params.clone(),
         map: None,
-        pipelines: pipelines(shared, EmitterShape::of(light)),
+        pipelines: pipelines(shared, EmitterShape::of(light), true),
         shape: EmitterShape::of(light),
+        recorded: true,
         uniform,
         values,
         pyramid: None,
@@ -428,7 +447,50 @@ fn storage(device: &wgpu::Device, label: &str, bytes: u64, extra: wgpu::BufferUs
     })
 }
 
+/// The most bytes one storage binding may hold on this device (and one buffer).
+fn binding_limit(shared: &Shared) -> u64 {
+    let limits = shared.gpu.device.limits();
+    limits.max_storage_buffer_binding_size.min(limits.max_buffer_size)
+}
+
+/// Why the pyramid of `views` maps of side `size`, or the screen buffers of a `width` × `height`
+/// output, cannot be bound on this device; `None` when they can.
+fn too_large(shared: &Shared, size: u32, views: u32, width: u32, height: u32) -> Option<String> {
+    let limit = binding_limit(shared);
+    let mib = |b: u64| b.div_ceil(1 << 20);
+    let pyramid = Pyramid::bytes(size, views);
+    if pyramid > limit {
+        let fits = (1..=size.ilog2()).rev().map(|k| 1u32 << k).find(|&s| Pyramid::bytes(s, views) <= limit);
+        let hint = fits.map_or(String::new(), |s| format!(": use map_size={s} or less"));
+        return Some(format!(
+            "the depth pyramid over {views} view{} of {size}² needs {} MiB, and this device binds at most {} MiB{hint}",
+            if views == 1 { "" } else { "s" },
+            mib(pyramid),
+            mib(limit)
+        ));
+    }
+    let (_, texels) = Screen::levels(width, height);
+    let screen = (texels * 8).max(Screen::list_bytes(width, height, false));
+    (screen > limit).then(|| {
+        format!(
+            "an output of {width} × {height} needs {} MiB of screen buffers, and this device binds at most {} MiB",
+            mib(screen),
+            mib(limit)
+        )
+    })
+}
+
 impl Pyramid {
+    /// Bytes of the levels ≥ 1 of `views` maps of side `size`.
+    fn bytes(size: u32, views: u32) -> u64 {
+        let (mut side, mut texels) = (size, 0u64);
+        while side > 1 {
+            side = side.div_ceil(2);
+            texels += u64::from(side) * u64::from(side);
+        }
+        texels.max(1) * u64::from(views) * 8
+    }
+
     fn new(shared: &Shared, size: u32, views: u32) -> Self {
         let mut levels = vec![(0, size)];
         let mut offset = 0;
@@ -461,20 +523,40 @@ impl Pyramid {
 }
 
 impl Screen {
-    fn new(shared: &Shared, uniform: &wgpu::Buffer, hsm: &wgpu::Buffer, width: u32, height: u32) -> Self {
-        let device = &shared.gpu.device;
+    /// The pull-push levels (offset, width, height) of a `width` × `height` output, and the
+    /// texels of all of them.
+    fn levels(width: u32, height: u32) -> (Vec<(u32, u32, u32)>, u64) {
         let mut levels = vec![(0, width, height)];
-        let (mut offset, mut w, mut h) = (width * height, width, height);
+        let (mut offset, mut w, mut h) = (u64::from(width) * u64::from(height), width, height);
         while w > 1 || h > 1 {
             (w, h) = (w.div_ceil(2), h.div_ceil(2));
-            levels.push((offset, w, h));
-            offset += w * h;
+            levels.push((offset as u32, w, h));
+            offset += u64::from(w) * u64::from(h);
         }
+        (levels, offset)
+    }
+
+    /// Bytes of the list with and without the setups recorded.
+    fn list_bytes(width: u32, height: u32, recorded: bool) -> u64 {
+        u64::from(width) * u64::from(height) * 4 * if recorded { 5 } else { 1 }
+    }
+
+    fn new(
+        shared: &Shared,
+        uniform: &wgpu::Buffer,
+        hsm: &wgpu::Buffer,
+        width: u32,
+        height: u32,
+        records: bool,
+    ) -> Self {
+        let device = &shared.gpu.device;
+        let (levels, texels) = Self::levels(width, height);
         let pixels = u64::from(width) * u64::from(height);
-        let vbuf = storage(device, "ssm v-buffer", u64::from(offset) * 8, wgpu::BufferUsages::empty());
+        let recorded = records && Self::list_bytes(width, height, true) <= binding_limit(shared);
+        let vbuf = storage(device, "ssm v-buffer", texels * 8, wgpu::BufferUsages::empty());
         // The front of the list from slot 0 up, the heavy pixels from the last slot down; behind
         // the slots, each pixel's setup as `classify` found it (`ssm.wgsl`, `record`: 4 words).
-        let list = storage(device, "ssm list", pixels * 4 * 5, wgpu::BufferUsages::empty());
+        let list = storage(device, "ssm list", Self::list_bytes(width, height, recorded), wgpu::BufferUsages::empty());
         let flags = storage(device, "ssm discontinuities", pixels * 4, wgpu::BufferUsages::empty());
         let work = storage(device, "ssm work", 16, wgpu::BufferUsages::empty());
         // Two indirect dispatches: `visibility`'s at 0, `heavy`'s at 12.
@@ -504,7 +586,7 @@ impl Screen {
         let finish = level_group(shared, "ssm finish", pair(0, coarser), &args);
         let finish_plain = level_group(shared, "ssm finish", pair(0, None), &args);
         let bytes = vbuf.size() + list.size() + flags.size() + work.size() + args.size();
-        Self { width, height, levels, own, work, args, pulls, pushes, finish, finish_plain, bytes }
+        Self { width, height, recorded, levels, own, work, args, pulls, pushes, finish, finish_plain, bytes }
     }
 }
 
@@ -521,7 +603,8 @@ impl Ssm {
         let pyramid = self.pyramid.as_ref().expect("made above");
         let (width, height) = (ctx.surface.width, ctx.surface.height);
         if self.screen.as_ref().is_none_or(|s| s.width != width || s.height != height) {
-            self.screen = Some(Screen::new(ctx.shared, &self.uniform, &pyramid.buffer, width, height));
+            let records = self.params.choice("records") != "off";
+            self.screen = Some(Screen::new(ctx.shared, &self.uniform, &pyramid.buffer, width, height, records));
         }
         let v = &mut self.values;
         v.limits[2] = pyramid.top() as f32;
@@ -580,7 +663,13 @@ impl ShadowTechnique for Ssm {
         let map = self.map.get_or_insert_with(|| LightMap::new(ctx.shared, params, false));
         map.update(ctx)?;
         self.triangles = ctx.gpu_scene.triangles;
-        Ok(())
+        // A clear error rather than a failed binding later (storage bindings hold 128 MiB on CPU
+        // adapters and in browsers: a cube of 4096² maps, or an output past about 12 million pixels).
+        let (size, views) = map.maps.as_ref().map_or((1, 1), |m| (m.size(), m.len()));
+        match too_large(ctx.shared, size, views, ctx.surface.width, ctx.surface.height) {
+            Some(message) => Err(TechniqueError::Failed { id: INFO.id.into(), message }),
+            None => Ok(()),
+        }
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {
@@ -588,9 +677,10 @@ impl ShadowTechnique for Ssm {
             return;
         }
         let shape = EmitterShape::of(ctx.light);
-        if shape != self.shape {
-            self.pipelines = pipelines(ctx.shared, shape);
-            self.shape = shape;
+        let recorded = self.screen.as_ref().is_none_or(|s| s.recorded);
+        if (shape, recorded) != (self.shape, self.recorded) {
+            self.pipelines = pipelines(ctx.shared, shape, recorded);
+            (self.shape, self.recorded) = (shape, recorded);
         }
         let Some(lookup) = self.map.as_ref().and_then(LightMap::group).cloned() else { return };
         let group0 = ctx.shared.resolve_bind_group(ctx.surface, ctx.light_buffer, out);
@@ -718,6 +808,25 @@ mod tests {
     fn level_loops(width: f32) -> u32 {
         let tiles = ((width + 2.0) / 4.0).clamp(0.0, 4096.0) as u32 + 2;
         tiles * (tiles * 35 + 2) + 2
+    }
+
+    /// The sizes the README and the parameter's help give against the 128 MiB that storage
+    /// bindings hold on CPU adapters and in browsers: the list with the setups fits 2560 × 1440
+    /// and not 3840 × 2160 (166 MB), without them 3840 × 2160 fits; a cube of 2048² maps has its
+    /// pyramid bound and one of 4096² does not (268 MB), nor one 8192² view (179 MB). Fails with
+    /// the record's words or the pyramid's levels miscounted.
+    #[test]
+    fn buffer_sizes_are_those_the_limits_are_stated_for() {
+        let limit = 128u64 << 20;
+        assert!(Screen::list_bytes(2560, 1440, true) <= limit);
+        assert_eq!(Screen::list_bytes(3840, 2160, true), 165_888_000);
+        assert!(Screen::list_bytes(3840, 2160, false) <= limit);
+        let (levels, texels) = Screen::levels(3840, 2160);
+        assert_eq!(levels.last().map(|l| (l.1, l.2)), Some((1, 1)));
+        assert!(texels * 8 <= limit && texels > 8_294_400 * 4 / 3);
+        assert!(Pyramid::bytes(2048, 6) <= limit);
+        assert_eq!(Pyramid::bytes(4096, 6), 268_435_440);
+        assert_eq!(Pyramid::bytes(8192, 1), 178_956_968);
     }
 
     fn uniform(iterations: f32) -> SsmUniform {

@@ -1229,6 +1229,15 @@ fn classify(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
+// #ifdef UNRECORDED
+// Outputs whose list with the setups would outgrow a storage binding (`ssm::Screen::recorded`):
+// `visibility` sets each listed pixel up again, as `classify` did.
+fn record(i: u32, s: Setup) {}
+
+fn listed_setup(i: u32) -> Setup {
+    return setup(pixel_at(i));
+}
+// #else
 // Behind the list's slots (one per pixel), four words per pixel (by pixel index): what
 // `classify`'s `setup` found for a listed pixel, so that `visibility` does not search its kernel
 // again: the kernel's half-width, the levels and layers, the blend weight, the horizon. (In the
@@ -1260,6 +1269,11 @@ fn restored(pixel: vec2<u32>, i: u32) -> Setup {
     out.horizon = bitcast<f32>(r.w);
     return out;
 }
+
+fn listed_setup(i: u32) -> Setup {
+    return restored(pixel_at(i), i);
+}
+// #endif
 
 fn pixel_at(i: u32) -> vec2<u32> {
     let width = u32(camera.size.x);
@@ -1335,7 +1349,7 @@ fn visibility(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     var j = 0u;
     for (var k = id.x; k < count && j < per; k = k + stride) {
         let i = list[k];
-        listed(restored(pixel_at(i), i), i);
+        listed(listed_setup(i), i);
         j = j + 1u;
     }
 }
@@ -1345,6 +1359,6 @@ fn visibility(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
 fn heavy(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x < atomicLoad(&work.heavy)) {
         let i = list[last_slot() - id.x];
-        listed(restored(pixel_at(i), i), i);
+        listed(listed_setup(i), i);
     }
 }

@@ -253,6 +253,40 @@ impl Shared {
 }
 
 impl Shared {
+    /// The most bytes one storage binding (and one buffer) may hold on this device: 128 MiB on
+    /// CPU adapters and in browsers. Buffers sized by the output or a map check against it, so
+    /// that a size past it is a clear error, not a failed binding.
+    pub fn storage_binding_limit(&self) -> u64 {
+        let limits = self.gpu.device.limits();
+        limits.max_storage_buffer_binding_size.min(limits.max_buffer_size)
+    }
+
+    /// Technique `id`'s clear error where `bytes` of `what` (for an output of `width` × `height`)
+    /// would outgrow [`Shared::storage_binding_limit`].
+    pub fn check_output_buffer(
+        &self,
+        id: &str,
+        what: &str,
+        bytes: u64,
+        width: u32,
+        height: u32,
+    ) -> Result<(), crate::technique::TechniqueError> {
+        let limit = self.storage_binding_limit();
+        if bytes <= limit {
+            return Ok(());
+        }
+        Err(crate::technique::TechniqueError::Failed {
+            id: id.into(),
+            message: format!(
+                "an output of {width} × {height} needs {} MiB of {what}, and this device binds at most {} MiB",
+                bytes.div_ceil(1 << 20),
+                limit.div_ceil(1 << 20)
+            ),
+        })
+    }
+}
+
+impl Shared {
     /// A resolve shader's module (with `defines`, and the comparison path the device takes) and
     /// its pipeline layout: group 0 the resolve layout, then `extra`.
     fn resolve_module(

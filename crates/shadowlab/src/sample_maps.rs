@@ -69,14 +69,18 @@ pub fn layout(shared: &Shared) -> wgpu::BindGroupLayout {
     })
 }
 
-/// The per-pixel running sums (w·V, w) of a surface.
-pub fn accumulation_buffer(shared: &Shared, width: u32, height: u32) -> wgpu::Buffer {
-    shared.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+/// The per-pixel running sums (w·V, w) of a surface, for technique `id`; an error where they
+/// would outgrow a storage binding (past about 16.7 million pixels on CPU adapters and in
+/// browsers).
+pub fn accumulation_buffer(shared: &Shared, id: &str, width: u32, height: u32) -> Result<wgpu::Buffer, TechniqueError> {
+    let bytes = 8 * u64::from(width.max(1)) * u64::from(height.max(1));
+    shared.check_output_buffer(id, "sample sums", bytes, width, height)?;
+    Ok(shared.gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("sample sums"),
-        size: 8 * u64::from(width.max(1)) * u64::from(height.max(1)),
+        size: bytes,
         usage: wgpu::BufferUsages::STORAGE,
         mapped_at_creation: false,
-    })
+    }))
 }
 
 /// The views of every sample with one layout for all (all cube or all single), from `make(force_cube)`.

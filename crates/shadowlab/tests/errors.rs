@@ -34,3 +34,37 @@ fn a_lost_device_is_recorded() {
     assert!(why.contains("lost") && why.contains("Destroyed"), "{why}");
     assert_eq!(gpu.lost().as_deref(), Some(why.as_str()), "it stays");
 }
+
+/// Buffers sized by the output (the sample sums of `sampled`, `cssm` and several-sample `volumes`,
+/// 8 bytes a pixel; `ssm`'s pull-push levels) that would outgrow a storage binding (128 MiB on CPU
+/// adapters and in browsers: past about 16.7 million pixels) are a clear error from the technique,
+/// naming the output and the limit, not a failed binding. The output is the smallest square past
+/// the limit for 8 bytes a pixel, where it is a size a renderer can draw.
+#[test]
+fn an_output_past_the_binding_limit_is_a_clear_error() {
+    use shadowlab::{Renderer, TechniqueSpec};
+    use shadowlab_core::LightId;
+    let gpu = common::gpu();
+    let limits = gpu.device.limits();
+    let limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+    let side = ((limit / 8) as f64).sqrt().floor() as u32 + 1;
+    if side > limits.max_texture_dimension_2d.min(8192) {
+        println!("binding limit {limit}: an output past it ({side}²) is beyond what this test draws");
+        return;
+    }
+    let scene = shadowlab_core::load_scene("penumbra").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut renderer = Renderer::new(&gpu, scene, &view, side, side);
+    for spec in ["sampled:samples=4", "cssm", "volumes:samples=4", "ssm"] {
+        renderer.set_technique(LightId(0), &TechniqueSpec::parse(spec, &[]).unwrap()).unwrap();
+        let message = match renderer.render() {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("{spec}: rendered {side}² past a binding limit of {limit} bytes"),
+        };
+        let id = spec.split(':').next().unwrap();
+        assert!(
+            message.contains(&format!("technique '{id}'")) && message.contains(&format!("{side} × {side}")),
+            "{spec}: unclear: {message}"
+        );
+    }
+}

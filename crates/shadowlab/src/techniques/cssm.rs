@@ -281,7 +281,7 @@ impl ShadowTechnique for Cssm {
         let shared = ctx.shared;
         let (w, h) = (ctx.surface.width, ctx.surface.height);
         if self.accum.as_ref().is_none_or(|a| (a.1, a.2) != (w, h)) {
-            self.accum = Some((sample_maps::accumulation_buffer(shared, w, h), w, h));
+            self.accum = Some((sample_maps::accumulation_buffer(shared, INFO.id, w, h)?, w, h));
             self.cascades.clear();
         }
         let view = ctx.surface.camera.view();

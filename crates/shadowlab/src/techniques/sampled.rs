@@ -144,7 +144,7 @@ impl Sampled {
             (0..n).map(|i| SetUniform::all(i, 1, faces, pcf | if i == 0 { SET_FIRST } else { 0 })).collect()
         };
         let (w, h) = (ctx.surface.width, ctx.surface.height);
-        let accum = sample_maps::accumulation_buffer(shared, w, h);
+        let accum = sample_maps::accumulation_buffer(shared, INFO.id, w, h)?;
         let config = SetConfig {
             size,
             array,

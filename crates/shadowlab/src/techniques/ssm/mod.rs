@@ -447,37 +447,26 @@ fn storage(device: &wgpu::Device, label: &str, bytes: u64, extra: wgpu::BufferUs
     })
 }
 
-/// The most bytes one storage binding may hold on this device (and one buffer).
-fn binding_limit(shared: &Shared) -> u64 {
-    let limits = shared.gpu.device.limits();
-    limits.max_storage_buffer_binding_size.min(limits.max_buffer_size)
-}
-
-/// Why the pyramid of `views` maps of side `size`, or the screen buffers of a `width` × `height`
-/// output, cannot be bound on this device; `None` when they can.
-fn too_large(shared: &Shared, size: u32, views: u32, width: u32, height: u32) -> Option<String> {
-    let limit = binding_limit(shared);
+/// A clear error where the pyramid of `views` maps of side `size`, or the screen buffers of a
+/// `width` × `height` output, would outgrow a storage binding on this device.
+fn check_sizes(shared: &Shared, size: u32, views: u32, width: u32, height: u32) -> Result<(), TechniqueError> {
+    let limit = shared.storage_binding_limit();
     let mib = |b: u64| b.div_ceil(1 << 20);
     let pyramid = Pyramid::bytes(size, views);
     if pyramid > limit {
         let fits = (1..=size.ilog2()).rev().map(|k| 1u32 << k).find(|&s| Pyramid::bytes(s, views) <= limit);
         let hint = fits.map_or(String::new(), |s| format!(": use map_size={s} or less"));
-        return Some(format!(
+        let message = format!(
             "the depth pyramid over {views} view{} of {size}² needs {} MiB, and this device binds at most {} MiB{hint}",
             if views == 1 { "" } else { "s" },
             mib(pyramid),
             mib(limit)
-        ));
+        );
+        return Err(TechniqueError::Failed { id: INFO.id.into(), message });
     }
     let (_, texels) = Screen::levels(width, height);
     let screen = (texels * 8).max(Screen::list_bytes(width, height, false));
-    (screen > limit).then(|| {
-        format!(
-            "an output of {width} × {height} needs {} MiB of screen buffers, and this device binds at most {} MiB",
-            mib(screen),
-            mib(limit)
-        )
-    })
+    shared.check_output_buffer(INFO.id, "screen buffers", screen, width, height)
 }
 
 impl Pyramid {
@@ -552,7 +541,7 @@ impl Screen {
         let device = &shared.gpu.device;
         let (levels, texels) = Self::levels(width, height);
         let pixels = u64::from(width) * u64::from(height);
-        let recorded = records && Self::list_bytes(width, height, true) <= binding_limit(shared);
+        let recorded = records && Self::list_bytes(width, height, true) <= shared.storage_binding_limit();
         let vbuf = storage(device, "ssm v-buffer", texels * 8, wgpu::BufferUsages::empty());
         // The front of the list from slot 0 up, the heavy pixels from the last slot down; behind
         // the slots, each pixel's setup as `classify` found it (`ssm.wgsl`, `record`: 4 words).
@@ -666,10 +655,7 @@ impl ShadowTechnique for Ssm {
         // A clear error rather than a failed binding later (storage bindings hold 128 MiB on CPU
         // adapters and in browsers: a cube of 4096² maps, or an output past about 12 million pixels).
         let (size, views) = map.maps.as_ref().map_or((1, 1), |m| (m.size(), m.len()));
-        match too_large(ctx.shared, size, views, ctx.surface.width, ctx.surface.height) {
-            Some(message) => Err(TechniqueError::Failed { id: INFO.id.into(), message }),
-            None => Ok(()),
-        }
+        check_sizes(ctx.shared, size, views, ctx.surface.width, ctx.surface.height)
     }
 
     fn resolve(&mut self, ctx: &mut FrameContext<'_>, out: &VisibilityLayer) {

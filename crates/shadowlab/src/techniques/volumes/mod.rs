@@ -1030,6 +1030,11 @@ impl Volumes {
         };
         store.extract(ctx, &topology, &self.casters, &sources)?;
         if self.state.as_ref().is_none_or(|s| s.size != size || s.samples != self.samples.len()) {
+            if self.samples.len() > 1 {
+                // The per-pixel sums of several samples (`build_state`).
+                let bytes = 8 * u64::from(size.0) * u64::from(size.1);
+                ctx.shared.check_output_buffer(INFO.id, "sample sums", bytes, size.0, size.1)?;
+            }
             self.state = Some(self.build_state(ctx));
         }
         if self.crop && self.receivers.is_none() {

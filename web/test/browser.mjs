@@ -158,6 +158,15 @@ async function shadows(backend, page) {
   check(refused[0] === 'pcf:taps=4' && refused[1].includes('taps'),
     `${label}: a bad parameter is refused in words and the technique stays (${refused[1]})`);
   await page.evaluate(() => { document.getElementById('error').textContent = ''; window.shadowlab.error = ''; });
+  if (backend === 'webgpu' && info.includes('cpu adapter')) {
+    // `ssm` on WebGPU on the CPU (SwiftShader): compiling its shaders took the GPU process past
+    // 6 GB and the browser down with it; the page refuses it in words and keeps what it ran.
+    await typeSpec('ssm');
+    const ssm = await page.evaluate(() => [window.shadowlab.app.technique(), document.getElementById('error').textContent]);
+    check(ssm[0] === 'pcf:taps=4' && /too large.*SwiftShader/.test(ssm[1]),
+      `${label}: ssm is refused in words on a CPU adapter, and the technique stays (${ssm[1]})`);
+    await page.evaluate(() => { document.getElementById('error').textContent = ''; window.shadowlab.error = ''; });
+  }
   // The camera from the page's own handlers (a drag, a wheel step), and values no handler sends.
   await framesAfter(page, 2);
   const before = await canvas(page);

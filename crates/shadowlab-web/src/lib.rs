@@ -352,7 +352,24 @@ impl App {
 
     /// Sets `spec` on every light of the renderer (`hard` where it does not apply); the names of
     /// the lights that fell back.
+    /// Why this browser's adapter cannot run technique `id`, if it cannot. `ssm`'s contour tracing
+    /// (`visibility` in its WGSL) is a large shader: on a CPU WebGPU adapter (Chromium's
+    /// SwiftShader) the GPU process passed 6 GB compiling it and the browser went down with it
+    /// (measured on Chromium 156 headless; with parts of the shader cut out it compiled, in 0.2–0.5 GB,
+    /// so it is the whole shader's size, not one construct). Refused in words instead.
+    fn cannot_run(&self, id: &str) -> Option<String> {
+        let cpu = self.backend == wgpu::Backend::BrowserWebGpu && self.gpu.adapter.device_type == "cpu";
+        (cpu && id == "ssm").then(|| {
+            "technique 'ssm': its shaders are too large for this browser's WebGPU on the CPU (SwiftShader) \
+             to compile (it runs out of memory); it needs WebGPU on a GPU, or the native build"
+                .to_owned()
+        })
+    }
+
     fn apply_technique(&mut self, spec: &TechniqueSpec) -> Result<Vec<String>, JsError> {
+        if let Some(why) = self.cannot_run(spec.info.id) {
+            return Err(JsError::new(&why));
+        }
         let Some(renderer) = &mut self.renderer else { return Err(JsError::new("no scene yet")) };
         let hard = TechniqueSpec::parse("hard", &[]).map_err(js_error)?;
         let mut fallback = Vec::new();

@@ -72,6 +72,23 @@ pub struct WorldTriangle {
     pub triangle: u32,
 }
 
+/// obvhs's `cwbvh::builder::build_cwbvh` at `fast_build` (PLOC, reinsertion, then the compressed
+/// wide BVH), called step by step: that helper times itself with `std::time::Instant`, which panics
+/// on `wasm32-unknown-unknown` (the web page's `lightmesh` precomputation died on it).
+fn build_cwbvh(triangles: &[WorldTriangle]) -> CwBvh {
+    let config = obvhs::BvhBuildParams::fast_build();
+    let indices = (0..triangles.len() as u32).collect();
+    let mut bvh2 = obvhs::ploc::PlocBuilder::with_capacity(triangles.len()).build(
+        config.ploc_search_distance,
+        triangles,
+        indices,
+        config.sort_precision,
+        config.search_depth_threshold,
+    );
+    obvhs::bvh2::reinsertion::ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+    obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3), true, false)
+}
+
 impl obvhs::Boundable for WorldTriangle {
     fn aabb(&self) -> obvhs::aabb::Aabb {
         obvhs::aabb::Aabb::from_points(&self.v)
@@ -277,15 +294,7 @@ impl SceneBvh {
             }
             push_instance(scene, i, inst, &mut triangles);
         }
-        let bvh = if triangles.is_empty() {
-            CwBvh::default()
-        } else {
-            obvhs::cwbvh::builder::build_cwbvh(
-                &triangles,
-                obvhs::BvhBuildParams::fast_build(),
-                &mut Duration::default(),
-            )
-        };
+        let bvh = if triangles.is_empty() { CwBvh::default() } else { build_cwbvh(&triangles) };
         // Store triangles in the BVH's leaf order, so traversal indexes them directly.
         let triangles: Vec<WorldTriangle> = bvh.primitive_indices.iter().map(|&i| triangles[i as usize]).collect();
         let mut out = Self {

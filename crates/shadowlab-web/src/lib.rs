@@ -350,8 +350,6 @@ impl App {
         Ok(())
     }
 
-    /// Sets `spec` on every light of the renderer (`hard` where it does not apply); the names of
-    /// the lights that fell back.
     /// Why this browser's adapter cannot run technique `id`, if it cannot. `ssm`'s contour tracing
     /// (`visibility` in its WGSL) is a large shader: on a CPU WebGPU adapter (Chromium's
     /// SwiftShader) the GPU process passed 6 GB compiling it and the browser went down with it
@@ -366,6 +364,8 @@ impl App {
         })
     }
 
+    /// Sets `spec` on every light of the renderer (`hard` where it does not apply); the names of
+    /// the lights that fell back.
     fn apply_technique(&mut self, spec: &TechniqueSpec) -> Result<Vec<String>, JsError> {
         if let Some(why) = self.cannot_run(spec.info.id) {
             return Err(JsError::new(&why));

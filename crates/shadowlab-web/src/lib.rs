@@ -306,7 +306,7 @@ impl App {
         let Some(renderer) = &mut self.renderer else { return Ok(()) };
         renderer.frame().map_err(js_error)?;
         if let Some(e) = self.gpu.take_error() {
-            return Err(JsError::new(&format!("GPU error: {e}")));
+            return Err(js_error(renderer.device_error(&e)));
         }
         let texture = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,

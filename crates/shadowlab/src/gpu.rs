@@ -85,6 +85,9 @@ impl From<&wgpu::AdapterInfo> for AdapterSummary {
     }
 }
 
+/// How [`Gpu::take_error`]'s message starts when the device ran out of memory.
+pub const OUT_OF_MEMORY: &str = "out of GPU memory";
+
 /// A device and queue, and what they can do.
 #[derive(Debug, Clone)]
 pub struct Gpu {
@@ -239,7 +242,12 @@ impl Gpu {
         gpu.device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
             let mut slot = slot.lock().unwrap_or_else(|p| p.into_inner());
             if slot.is_none() {
-                *slot = Some(e.to_string());
+                *slot = Some(match e {
+                    // wgpu's own text ("Out of Memory") names no resource: callers add what they
+                    // hold, keyed on this prefix.
+                    wgpu::Error::OutOfMemory { .. } => format!("{OUT_OF_MEMORY} ({e})"),
+                    e => e.to_string(),
+                });
             }
         }));
         // Nothing drawn on a lost device shows, and some calls on it fail outright (a buffer

@@ -34,7 +34,7 @@ pub mod timing;
 pub mod util;
 
 pub use frame::{CameraUniform, SurfaceInputs, VisibilityLayer};
-pub use gpu::{BackendChoice, Gpu, GpuError};
+pub use gpu::{BackendChoice, Gpu, GpuError, OUT_OF_MEMORY};
 pub use live::{Edit, EditError, InstanceId, LightChange, Work};
 pub use registry::{TechniqueSpec, registry};
 pub use renderer::{FrameReport, Renderer};

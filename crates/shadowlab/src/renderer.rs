@@ -215,6 +215,16 @@ impl Renderer {
         Ok((work, start))
     }
 
+    /// The frame's error for device error `e`: after running out of memory, with what the
+    /// shadows hold and the largest holder.
+    pub fn device_error(&self, e: &str) -> TechniqueError {
+        let mut message = format!("GPU error: {e}");
+        if e.starts_with(crate::gpu::OUT_OF_MEMORY) {
+            message += &format!("; {}", self.shadows.out_of_memory_hint());
+        }
+        TechniqueError::Failed { id: "frame".into(), message }
+    }
+
     /// Renders one frame and waits for it; returns its timings (native only: it blocks).
     #[cfg(not(target_arch = "wasm32"))]
     pub fn render(&mut self) -> Result<FrameReport, TechniqueError> {
@@ -222,7 +232,7 @@ impl Renderer {
         let record_ms = start.elapsed().as_secs_f64() * 1e3;
         self.gpu.wait();
         if let Some(e) = self.gpu.take_error() {
-            return Err(TechniqueError::Failed { id: "frame".into(), message: format!("GPU error: {e}") });
+            return Err(self.device_error(&e));
         }
         let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         let gpu = self

@@ -1047,4 +1047,38 @@ impl Shadows {
     pub fn memory_bytes(&self) -> u64 {
         self.stats().memory_bytes + self.temporary.bytes() + self.permanent.as_ref().map_or(0, PermanentSurface::bytes)
     }
+
+    /// What to say after the device ran out of memory: how much the shadows ask for and which
+    /// light's technique asks for most (a map size or sample count past what the device holds
+    /// allocates without a validation error, and the device's own message names no resource).
+    pub fn out_of_memory_hint(&self) -> String {
+        let largest = self
+            .lights
+            .iter()
+            .flat_map(|s| s.rungs.iter().map(move |r| (s, r)))
+            .map(|(s, r)| (r.technique.stats().memory_bytes, s, r))
+            .max_by_key(|(bytes, ..)| *bytes);
+        let mut hint = format!("the shadows ask for {} of GPU memory", format_bytes(self.memory_bytes()));
+        if let Some((bytes, s, r)) = largest.filter(|(bytes, ..)| *bytes > 0) {
+            let light = self.live.light(s.light).map_or("?", |l| l.name.as_str());
+            hint += &format!(
+                ", {} of it `{}` on light `{light}`: lower its map sizes or sample counts",
+                format_bytes(bytes),
+                r.spec.spec
+            );
+        }
+        hint
+    }
+}
+
+/// Bytes in the largest binary unit that keeps them above 1 (`4.0 GiB`, `12 MiB`).
+fn format_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 4] = ["B", "KiB", "MiB", "GiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 { format!("{bytes} B") } else { format!("{value:.1} {}", UNITS[unit]) }
 }

@@ -68,3 +68,33 @@ fn an_output_past_the_binding_limit_is_a_clear_error() {
         );
     }
 }
+
+/// Maps past the device's memory allocate without a validation error, and the device's own
+/// message ("Out of Memory") names nothing: the frame's error adds what the shadows ask for and
+/// which light's technique asks for most. `cssm:size0=8192` on `room` asks for 25 GiB (its
+/// whole-room views keep the largest cascade size for every sample), past lavapipe's heap on
+/// these 24 GB machines; a GPU that holds it has nothing to report.
+#[test]
+fn running_out_of_memory_names_the_largest_holder() {
+    use shadowlab::{Renderer, TechniqueSpec};
+    let gpu = common::gpu();
+    let scene = shadowlab_core::load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut renderer = Renderer::new(&gpu, scene, &view, 32, 24);
+    let spec = TechniqueSpec::parse("cssm:size0=8192", &[]).unwrap();
+    for light in 0..renderer.scene().lights.len() {
+        renderer.set_technique(shadowlab_core::LightId(light as u32), &spec).unwrap();
+    }
+    let message = match renderer.render() {
+        Err(e) => e.to_string(),
+        Ok(_) => {
+            println!("{}: held 25 GiB of maps, no error to check", gpu.adapter.name);
+            return;
+        }
+    };
+    assert!(message.contains(shadowlab::OUT_OF_MEMORY), "another error: {message}");
+    assert!(
+        message.contains("GiB of GPU memory") && message.contains("`cssm:size0=8192` on light"),
+        "the holder unnamed: {message}"
+    );
+}

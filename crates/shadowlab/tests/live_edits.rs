@@ -189,6 +189,15 @@ fn bad_edits_through_the_engine_change_nothing() {
     let chair = r.shadows.live().find_instance("chair east").unwrap();
     let nan = Affine3A::from_translation(Vec3::NAN);
     assert!(matches!(r.apply(Edit::Transform { instance: chair, transform: nan }), Err(EditError::BadInstance { .. })));
+    // Finite moves whose scene would have an infinite extent, as a scene file may not (a move to
+    // 3e38 m once went through and overflowed the truth's BVH build): a chair 1e20 m away makes
+    // the room's diagonal overflow, and so does a copy of the chair added there.
+    let far = Affine3A::from_translation(Vec3::new(1e20, 0.0, 0.0));
+    assert!(matches!(r.apply(Edit::Transform { instance: chair, transform: far }), Err(EditError::BadInstance { .. })));
+    let mut copy = r.shadows.live().instance(chair).unwrap().clone();
+    copy.transform = far;
+    copy.name = "far chair".into();
+    assert!(matches!(r.apply(Edit::AddInstance(Box::new(copy))), Err(EditError::BadInstance { .. })));
     assert_eq!(r.shadows.live().scene(), &before);
     let w = r.render().unwrap().work;
     assert!(!w.rebuilt_anything(), "nothing changed, nothing rebuilt: {w:?}");

@@ -256,6 +256,20 @@ impl LiveScene {
         self.fit_caster_bounds = casters;
     }
 
+    /// Refuses bounds that would make the scene's extent infinite, as a scene file's may not be
+    /// (`Scene::validate`): with the other instances (all but `skip`), the box's diagonal must
+    /// be finite. A move to 3e38 m passed the transform's own check and then overflowed the
+    /// truth's BVH build.
+    fn check_extent(&self, skip: Option<usize>, bounds: &Aabb) -> Result<(), String> {
+        let others = self.instances.iter().enumerate().filter(|(k, _)| Some(*k) != skip);
+        let all = others.fold(*bounds, |all, (_, s)| all.union(&s.bounds));
+        if !bounds.is_empty() && !all.diagonal().is_finite() {
+            let reach = bounds.min.abs().max(bounds.max.abs()).max_element();
+            return Err(format!("the scene's extent would become infinite (the instance would reach {reach:.3e} m)"));
+        }
+        Ok(())
+    }
+
     fn bounds_of(&self, inst: &Instance) -> Aabb {
         self.scene.meshes.get(inst.mesh.index()).map_or(Aabb::EMPTY, |m| m.bounds().transformed(&inst.transform))
     }
@@ -305,8 +319,10 @@ impl LiveScene {
                     .map_err(|message| EditError::BadInstance { name: inst.name.clone(), message })?;
                 let mobility = inst.mobility;
                 let before = self.instances[i].bounds;
+                let after = self.bounds_of(&Instance { transform, ..inst.clone() });
+                self.check_extent(Some(i), &after)
+                    .map_err(|message| EditError::BadInstance { name: inst.name.clone(), message })?;
                 self.scene.instances[i].transform = transform;
-                let after = self.bounds_of(&self.scene.instances[i]);
                 let version = self.version();
                 self.instances[i].version = version;
                 self.instances[i].bounds = after;
@@ -327,9 +343,10 @@ impl LiveScene {
                     return Err(bad(format!("material index {} out of range", inst.material.0)));
                 }
                 check_transform(&inst.transform).map_err(bad)?;
+                let bounds = self.bounds_of(&inst);
+                self.check_extent(None, &bounds).map_err(bad)?;
                 let id = InstanceId(self.next_instance);
                 self.next_instance += 1;
-                let bounds = self.bounds_of(&inst);
                 let version = self.version();
                 let mobility = inst.mobility;
                 self.scene.instances.push(*inst);

@@ -43,7 +43,7 @@ pub use camera::{CameraPath, View};
 pub use error::{Location, SceneError};
 pub use glam;
 pub use light::{EmitterExtent, Light, LightKind};
-pub use load::{LoadOptions, Loaded, load_scene, load_scene_with};
+pub use load::{LoadOptions, Loaded, load_scene, load_scene_with, read_regular};
 pub use material::{AlphaMode, Material, TextureRef};
 pub use mesh::Mesh;
 pub use params::{ParamDef, ParamError, ParamKind, ParamSet, ParamValue};

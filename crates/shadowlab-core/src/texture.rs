@@ -57,7 +57,7 @@ impl Rgba8 {
                 if jpeg {
                     return Ok(None);
                 }
-                let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+                let bytes = crate::load::read_regular(path).map_err(|e| format!("{}: {e}", path.display()))?;
                 Self::from_png(&bytes).map(Some).map_err(|e| format!("{}: {e}", path.display()))
             }
         }

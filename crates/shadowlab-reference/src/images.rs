@@ -128,7 +128,8 @@ pub fn write_raw_f32(
 
 /// Reads a raw f32 file written by [`write_raw_f32`] (the header is not needed: `len` checks it).
 pub fn read_raw_f32(path: &Path) -> Result<Vec<f32>, ImageError> {
-    let bytes = std::fs::read(path).map_err(|source| ImageError::Io { path: path.to_path_buf(), source })?;
+    let bytes =
+        shadowlab_core::read_regular(path).map_err(|source| ImageError::Io { path: path.to_path_buf(), source })?;
     Ok(bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
 }
 

@@ -195,7 +195,8 @@ impl CalibrationFile {
 
 /// Reads a calibration file written by `shadowlab calibrate`.
 pub fn read_calibration(path: &Path) -> Result<Calibration> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading calibration {}", path.display()))?;
+    let bytes =
+        shadowlab_core::read_regular(path).with_context(|| format!("reading calibration {}", path.display()))?;
     let file: CalibrationFile =
         serde_json::from_slice(&bytes).with_context(|| format!("calibration {}", path.display()))?;
     Ok(file.calibration())

@@ -467,7 +467,7 @@ fn read_timeline(spec: &str, scene: &shadowlab_core::Scene, size: (u32, u32)) ->
             None => bail!("no built-in timeline '{spec}' (built in: {}; or a .toml file)", BUILT_IN.join(", ")),
         };
     }
-    let bytes = std::fs::read(path).with_context(|| format!("reading timeline {}", path.display()))?;
+    let bytes = shadowlab_core::read_regular(path).with_context(|| format!("reading timeline {}", path.display()))?;
     let text = String::from_utf8(bytes).with_context(|| format!("timeline {} is not UTF-8 text", path.display()))?;
     Ok((path.display().to_string(), text))
 }

@@ -43,6 +43,10 @@ pub fn run(_global: &GlobalArgs, args: Args) -> Result<()> {
     let all = SceneBvh::build(scene, Selection::All);
     let surface = trace_surface(&all, scene, &setup.view, w, h);
     let casters = SceneBvh::build(scene, Selection::Casters);
+    // The alpha masks' textures that could not be read (the casters' build read them).
+    for warning in &casters.warnings {
+        eprintln!("warning: {warning}");
+    }
     let lights: Vec<(u32, &shadowlab_core::Light)> =
         setup.lights.iter().map(|id| (id.0, &scene.lights[id.index()])).collect();
     let settings = ReferenceSettings { samples: args.samples, seed: args.seed };

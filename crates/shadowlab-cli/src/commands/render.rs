@@ -51,6 +51,9 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     }
     let gpu = open_gpu(global)?;
     let mut r = renderer_for(&gpu, &setup, spec)?;
+    for warning in &r.shadows.gpu_scene().warnings {
+        eprintln!("warning: {warning}");
+    }
     let report = r.render()?;
     let mut image = r.read_image()?;
     if args.overlay == Some(Overlay::Fill) {

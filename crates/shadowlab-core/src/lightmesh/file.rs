@@ -277,7 +277,7 @@ pub fn write(path: &Path, scene: &Scene, meshes: &[LightMesh]) -> Result<u64, Li
 
 /// Reads the file for `scene`.
 pub fn read(path: &Path, scene: &Scene) -> Result<Decoded, LightMeshFileError> {
-    let bytes =
-        std::fs::read(path).map_err(|source| LightMeshFileError::Io { path: path.display().to_string(), source })?;
+    let bytes = crate::load::read_regular(path)
+        .map_err(|source| LightMeshFileError::Io { path: path.display().to_string(), source })?;
     decode(&bytes, scene)
 }

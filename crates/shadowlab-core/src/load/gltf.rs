@@ -46,6 +46,45 @@ fn guarded<T>(path: &Path, what: &str, read: impl FnOnce() -> Result<T>) -> Resu
     })
 }
 
+/// Refuses external buffers that are not regular files before the gltf crate reads them whole
+/// (`"uri": "/dev/zero"` was read until memory ran out; a FIFO waited forever). The URI is
+/// percent-decoded and resolved against `base` as the crate does; what does not exist is left to
+/// its own error.
+fn check_buffer_files(doc: &gltf::Document, base: &Path) -> std::result::Result<(), String> {
+    for buffer in doc.buffers() {
+        let gltf::buffer::Source::Uri(uri) = buffer.source() else { continue };
+        if uri.starts_with("data:") {
+            continue;
+        }
+        let local = uri.strip_prefix("file://").unwrap_or(uri);
+        let target = base.join(percent_decoded(local));
+        if target.exists() && !target.is_file() {
+            return Err(format!("buffer {}: '{uri}' is not a regular file", buffer.index()));
+        }
+    }
+    Ok(())
+}
+
+/// `%XX` escapes replaced by their bytes (invalid escapes kept as written).
+fn percent_decoded(s: &str) -> String {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        if bytes[i] == b'%' && i + 2 < bytes.len() {
+            if let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
 /// Parses glTF or GLB bytes; `path` names the file in errors and resolves external buffers.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
     let file = || Location::file(path);
@@ -62,6 +101,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Loaded> {
         gltf::Gltf::from_slice(bytes).map_err(|e| SceneError::parse(file(), gltf_message(e)))
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
+    check_buffer_files(&gltf.document, base).map_err(|message| SceneError::parse(file(), message))?;
     let buffers = guarded(path, "buffers", || {
         gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
             .map_err(|e| SceneError::parse(file(), format!("buffers: {}", gltf_message(e))))
@@ -412,5 +452,25 @@ mod tests {
         assert_eq!(decode_base64("YQ").unwrap(), b"a");
         assert!(decode_base64("a$b").is_none());
         assert_eq!(decode_data_uri("data:image/png;base64,YWJj").unwrap(), ("image/png", b"abc".to_vec()));
+    }
+
+    /// An external buffer that is a device is refused before the gltf crate reads it whole
+    /// (`/dev/zero` was read until memory ran out), whether its URI is written plainly or
+    /// percent-encoded; a missing file is still the crate's own error.
+    #[cfg(unix)]
+    #[test]
+    fn a_buffer_that_is_not_a_regular_file_is_refused() {
+        let document = |uri: &str| {
+            format!(
+                r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{uri}","byteLength":36}}],"scenes":[{{"nodes":[]}}]}}"#
+            )
+        };
+        for uri in ["/dev/zero", "%2Fdev%2Fzero", "file:///dev/zero"] {
+            let e = parse(document(uri).as_bytes(), Path::new("t.gltf")).err().expect("refused").to_string();
+            assert!(e.contains("not a regular file"), "{uri}: {e}");
+        }
+        let e = parse(document("missing.bin").as_bytes(), Path::new("t.gltf")).err().expect("refused").to_string();
+        assert!(!e.contains("not a regular file"), "{e}");
+        assert_eq!(percent_decoded("a%20b%zz%4"), "a b%zz%4");
     }
 }

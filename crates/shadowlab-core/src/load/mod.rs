@@ -90,6 +90,16 @@ fn extension(path: &Path) -> Option<String> {
     path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase())
 }
 
+/// Reads a whole file a user named (a texture, a timeline, a calibration, light meshes), refusing
+/// what is not a regular file first: `/dev/zero` would be read until memory ran out, and a FIFO
+/// would wait forever for a writer.
+pub fn read_regular(path: &Path) -> std::io::Result<Vec<u8>> {
+    if path.exists() && !path.is_file() {
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"));
+    }
+    std::fs::read(path)
+}
+
 /// Loads a file by its extension, without defaults or whole-scene validation (used for files
 /// placed by a scene file too).
 pub fn load_file(path: &Path) -> Result<Loaded> {
@@ -136,5 +146,20 @@ pub fn add_defaults(loaded: &mut Loaded) {
             3.0,
         ));
         loaded.warnings.push("the file has no lights: added directional light 'sun'".to_owned());
+    }
+}
+
+#[cfg(all(test, unix))]
+mod read_tests {
+    /// A device is refused before it is read (`/dev/zero` would be read until memory ran out),
+    /// a regular file is read, a missing one is the system's own error.
+    #[test]
+    fn only_regular_files_are_read() {
+        let e = super::read_regular(std::path::Path::new("/dev/zero")).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput);
+        let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml");
+        assert!(super::read_regular(&here).unwrap().starts_with(b"["));
+        let missing = super::read_regular(std::path::Path::new("/nonexistent/shadowlab")).unwrap_err();
+        assert_eq!(missing.kind(), std::io::ErrorKind::NotFound);
     }
 }

@@ -29,8 +29,11 @@ pub fn lights_from_emissive(scene: &mut Scene) -> Vec<String> {
         }
         let Some(mesh) = scene.meshes.get(inst.mesh.index()) else { continue };
         // The distinct corners, by position: loaders split vertices where normals or UVs differ.
+        // Only two triangles can make a rectangle: a larger emitter is not searched (the search
+        // is quadratic in its vertices: a 1024-segment emissive sphere took minutes).
         let mut corners: Vec<Vec3> = Vec::new();
-        for &v in mesh.triangles.iter().flatten() {
+        let two = if mesh.triangles.len() == 2 { &mesh.triangles[..] } else { &[] };
+        for &v in two.iter().flatten() {
             let Some(&p) = mesh.positions.get(v as usize) else { continue };
             let p = inst.transform.transform_point3(p);
             if !corners.iter().any(|c| (*c - p).length_squared() <= 1e-12 * (1.0 + p.length_squared())) {

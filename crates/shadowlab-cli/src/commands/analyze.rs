@@ -140,17 +140,30 @@ pub fn run(global: &GlobalArgs, args: Args) -> Result<()> {
     Ok(())
 }
 
+/// A log axis's range over `values` (finite and positive), at least `floor` and a factor 1.01
+/// wide; 0.1 to 10 when there are none.
+fn log_range(values: impl Iterator<Item = f32> + Clone, floor: f32) -> (f32, f32) {
+    let lo = values.clone().fold(f32::INFINITY, f32::min);
+    let hi = values.fold(0.0f32, f32::max);
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.1, 10.0);
+    }
+    let lo = lo.max(floor);
+    (lo, hi.max(lo * 1.01))
+}
+
 fn aliasing_svg(curves: &[Vec<(f32, f32, f32)>], title: &str) -> Result<String> {
     crate::report::register_font();
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (760, 420)).into_drawing_area();
         root.fill(&WHITE)?;
+        // Finite, positive values only; a degenerate scene (all its geometry one point) has none,
+        // and infinite bounds sent plotters' log axis making ticks until memory ran out.
         let pts = curves.iter().flatten();
-        let z_lo = pts.clone().map(|p| p.0).fold(f32::INFINITY, f32::min).max(1e-4);
-        let z_hi = pts.clone().map(|p| p.0).fold(0.0f32, f32::max).max(z_lo * 1.01);
-        let m_lo = pts.clone().flat_map(|p| [p.1, p.2]).filter(|v| *v > 0.0).fold(f32::INFINITY, f32::min).max(1e-6);
-        let m_hi = pts.flat_map(|p| [p.1, p.2]).fold(0.0f32, f32::max).max(m_lo * 1.01);
+        let usable = |v: &f32| v.is_finite() && *v > 0.0;
+        let (z_lo, z_hi) = log_range(pts.clone().map(|p| p.0).filter(usable), 1e-4);
+        let (m_lo, m_hi) = log_range(pts.flat_map(|p| [p.1, p.2]).filter(usable), 1e-6);
         let mut chart = ChartBuilder::on(&root)
             .caption(format!("perspective aliasing of {title} (m > 1: undersampled)"), ("sans-serif", 16))
             .margin(14)
@@ -161,12 +174,15 @@ fn aliasing_svg(curves: &[Vec<(f32, f32, f32)>], title: &str) -> Result<String> 
         let orange = RGBColor(230, 120, 20);
         let blue = RGBColor(30, 90, 200);
         for (i, c) in curves.iter().enumerate() {
-            let a = chart.draw_series(LineSeries::new(c.iter().map(|p| (p.0, p.1)), orange.stroke_width(2)))?;
+            let drawn = |m: fn(&(f32, f32, f32)) -> f32| {
+                c.iter().map(move |p| (p.0, m(p))).filter(|(z, v)| usable(z) && usable(v))
+            };
+            let a = chart.draw_series(LineSeries::new(drawn(|p| p.1), orange.stroke_width(2)))?;
             if i == 0 {
                 a.label("m_x")
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], orange.stroke_width(2)));
             }
-            let b = chart.draw_series(LineSeries::new(c.iter().map(|p| (p.0, p.2)), blue.stroke_width(2)))?;
+            let b = chart.draw_series(LineSeries::new(drawn(|p| p.2), blue.stroke_width(2)))?;
             if i == 0 {
                 b.label("m_z").legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], blue.stroke_width(2)));
             }
@@ -175,4 +191,22 @@ fn aliasing_svg(curves: &[Vec<(f32, f32, f32)>], title: &str) -> Result<String> 
         root.present()?;
     }
     Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Axis ranges from what can be drawn on a log axis: without finite positive values a fixed
+    /// range (infinite ones made plotters tick until memory ran out), and a curve of NaN and
+    /// infinities draws as an empty plot.
+    #[test]
+    fn log_ranges_are_finite() {
+        assert_eq!(log_range(std::iter::empty(), 1e-4), (0.1, 10.0));
+        assert_eq!(log_range([2.0f32, 8.0].into_iter(), 1e-4), (2.0, 8.0));
+        assert_eq!(log_range([3.0f32].into_iter(), 1e-4), (3.0, 3.0 * 1.01));
+        assert_eq!(log_range([1e-9f32, 1.0].into_iter(), 1e-4), (1e-4, 1.0));
+        let svg = aliasing_svg(&[vec![(f32::NAN, f32::INFINITY, 0.0), (0.0, f32::NAN, -1.0)]], "nothing").unwrap();
+        assert!(svg.contains("<svg"));
+    }
 }

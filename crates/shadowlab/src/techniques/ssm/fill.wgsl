@@ -1,7 +1,7 @@
 // `ssm`'s passes after `classify` (ssm.wgsl): the indirect dispatch of the listed pixels, and the
 // pull-push reconstruction of the pixels left out by screen-space adaptive sampling (Guennebaud et
 // al. 2007 §5.2, after Gortler et al. 1996): pull averages (visibility × weight, weight) down a
-// pyramid until every texel has data; push fills each level's gaps from the one below,
+// pyramid through a tent filter until every texel has data; push fills each level's gaps from the one below,
 // bilinearly; computed pixels (weight 1) are never changed. The last push writes the layer.
 
 // #include "resolve.wgsl"
@@ -47,22 +47,34 @@ fn at(l: vec4<u32>, x: u32, y: u32) -> vec2<f32> {
     return vbuf[l.x + min(y, l.z - 1u) * l.y + min(x, l.y - 1u)];
 }
 
-// Level k + 1 from level k: weights add up (to at most 1), visibility is their weighted mean.
+// Level k + 1 from level k (Gortler et al. 1996 §3.4.2, the pull): over the 4 × 4 fine texels
+// around a coarse texel's centre, a tent filter (1, 3, 3, 1)/8 along each axis weights each fine
+// texel by its distance to that centre, so a lone sample off the centre counts less there than one
+// on it; the weight is that sum times 4 (the tent's unnormalised sum, 2 per axis: one sample in
+// every 2 × 2 gives a complete level), at most 1; visibility is the weighted mean. With a 2 × 2
+// box instead, a coarse texel holding one sample took its value whole, shifted by up to half the
+// texel: a penumbra's ramp moved outwards level by level (s_min = 4 on `penumbra`'s 1 m light:
+// 0.081 penumbra RMSE, 0.025 computed in full).
 @compute @workgroup_size(8, 8)
 fn pull(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= level.dst.y || id.y >= level.dst.z) {
         return;
     }
+    let tent = array<f32, 4>(0.125, 0.375, 0.375, 0.125);
     var sum = 0.0;
     var weight = 0.0;
-    for (var dy = 0u; dy < 2u; dy = dy + 1u) {
-        for (var dx = 0u; dx < 2u; dx = dx + 1u) {
-            let x = 2u * id.x + dx;
-            let y = 2u * id.y + dy;
-            if (x < level.src.y && y < level.src.z) {
-                let c = vbuf[level.src.x + y * level.src.y + x];
-                sum = sum + c.x * c.y;
-                weight = weight + c.y;
+    // The tent's own sum over the fine texels that exist (less at the level's border).
+    var support = 0.0;
+    for (var dy = 0; dy < 4; dy = dy + 1) {
+        for (var dx = 0; dx < 4; dx = dx + 1) {
+            let x = 2 * i32(id.x) + dx - 1;
+            let y = 2 * i32(id.y) + dy - 1;
+            if (x >= 0 && y >= 0 && x < i32(level.src.y) && y < i32(level.src.z)) {
+                let c = vbuf[level.src.x + u32(y) * level.src.y + u32(x)];
+                let h = tent[dx] * tent[dy];
+                sum = sum + h * c.y * c.x;
+                weight = weight + h * c.y;
+                support = support + h;
             }
         }
     }
@@ -70,7 +82,7 @@ fn pull(@builtin(global_invocation_id) id: vec3<u32>) {
     if (weight > 0.0) {
         v = sum / weight;
     }
-    vbuf[level.dst.x + id.y * level.dst.y + id.x] = vec2<f32>(v, min(weight, 1.0));
+    vbuf[level.dst.x + id.y * level.dst.y + id.x] = vec2<f32>(v, min(4.0 * weight / max(support, 1.0e-6), 1.0));
 }
 
 // Level k's value at texel (x, y) with its gaps filled from level k + 1 (`level.src`), bilinearly.

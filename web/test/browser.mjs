@@ -199,6 +199,19 @@ async function shadows(backend, page) {
   // The orbit turns the view: 10 127 pixels measured changed (both backends); bound 500. The odd
   // values (NaN, a negative zoom) are ignored: no error, no panic.
   check(moved > 500, `${label}: dragging the canvas orbits the camera (${moved} pixels changed)`);
+  // Zooming out without end stops at 100 times the scene's size, and seven steps back in (× 1/128)
+  // bring the scene back into view: without the bound about 128 steps of × 2 took the camera to
+  // infinity, where no step back could reach (the canvas stayed blank).
+  await page.evaluate(() => { for (let i = 0; i < 200; i++) window.shadowlab.app.zoom(2); });
+  await framesAfter(page, 2);
+  const far = await canvas(page);
+  await page.evaluate(() => { for (let i = 0; i < 7; i++) window.shadowlab.app.zoom(0.5); });
+  await framesAfter(page, 2);
+  const back = changed(far, await canvas(page));
+  const zoomError = await page.evaluate(() => window.shadowlab.error);
+  // Measured: 58 728 pixels changed (WebGPU), 58 727 (WebGL2), 0 without the bound; bound 500, as
+  // for the orbit above.
+  check(!zoomError && back > 500, `${label}: zooming out 200 times, then 7 back in, shows the scene again (${back} pixels changed${zoomError ? '; ' + zoomError : ''})`);
   const views = await page.evaluate(() => [...document.querySelectorAll('#views option')].map(o => o.value));
   check(views.length > 0, `${label}: the scene's views are listed (${views.join(', ')})`);
   return { hard, pcss };

@@ -280,13 +280,16 @@ impl App {
         }
     }
 
-    /// Moves the camera towards its target (`factor` < 1) or away (> 1).
+    /// Moves the camera towards its target (`factor` < 1) or away (> 1), from 1 mm to 100 times
+    /// the scene's size (without that bound, about 128 calls of `zoom(2)` took the camera to
+    /// infinity).
     pub fn zoom(&mut self, factor: f32) {
         if !(factor.is_finite() && factor > 0.0) {
             return;
         }
         let offset = (self.view.position - self.view.target) * factor.clamp(0.5, 2.0);
-        if offset.length() > 1e-3 {
+        let farthest = self.renderer.as_ref().map_or(1e4, |r| 100.0 * r.scene().bounds().diagonal().max(0.1));
+        if offset.length() > 1e-3 && offset.length() <= farthest {
             self.view.position = self.view.target + offset;
         }
         if let Some(r) = &mut self.renderer {

@@ -288,7 +288,9 @@ impl App {
             return;
         }
         let offset = (self.view.position - self.view.target) * factor.clamp(0.5, 2.0);
-        let farthest = self.renderer.as_ref().map_or(1e4, |r| 100.0 * r.scene().bounds().diagonal().max(0.1));
+        // The GPU scene's kept bounds: `Scene::bounds` walks every mesh's triangles, at every
+        // wheel step.
+        let farthest = self.renderer.as_ref().map_or(1e4, |r| 100.0 * r.shadows.gpu_scene().bounds.diagonal().max(0.1));
         if offset.length() > 1e-3 && offset.length() <= farthest {
             self.view.position = self.view.target + offset;
         }

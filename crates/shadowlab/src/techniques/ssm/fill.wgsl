@@ -1,8 +1,9 @@
 // `ssm`'s passes after `classify` (ssm.wgsl): the indirect dispatch of the listed pixels, and the
 // pull-push reconstruction of the pixels left out by screen-space adaptive sampling (Guennebaud et
 // al. 2007 §5.2, after Gortler et al. 1996): pull averages (visibility × weight, weight) down a
-// pyramid through a tent filter until every texel has data; push fills each level's gaps from the one below,
-// bilinearly; computed pixels (weight 1) are never changed. The last push writes the layer.
+// pyramid through a tent filter until every texel has data; push fills each level's gaps from the
+// one below, bilinearly; computed pixels (weight 1) are never changed. The last push writes the
+// layer.
 
 // #include "resolve.wgsl"
 

@@ -34,6 +34,25 @@ pub fn map_size(width: u32, height: u32) -> u32 {
     (2 * width.max(height)).next_power_of_two().clamp(256, 1024)
 }
 
+/// The fewest texels a side of a dragged object's tile in the atlas.
+const MIN_TILE: u32 = 64;
+
+/// Texels a side of the dragged objects' tiles for lights whose lookups' footprints are at most
+/// `widest` pixels across ([`widest`]): two texels per pixel across them, the density
+/// [`map_size`] gives across the whole output, and at most `full` (its size). A tile holds one
+/// object as its light sees it, and its shadow and its own pixels are what the light's lookup
+/// covers: a chair whose shadow spans a third of the screen needs no more texels than that
+/// (on a CPU adapter the atlas pass costs by the texel: `room` at 160 × 120, 512² tiles, 2.0 ms;
+/// 256², 0.8 ms).
+fn tile_for(widest: u32, full: u32) -> u32 {
+    (2 * widest).next_power_of_two().clamp(MIN_TILE.min(full), full)
+}
+
+/// The larger side of the largest of `rects` (x, y, width, height).
+fn widest(rects: impl IntoIterator<Item = [u32; 4]>) -> u32 {
+    rects.into_iter().map(|[_, _, w, h]| w.max(h)).max().unwrap_or(0)
+}
+
 /// Part boxes (`LiveScene::instance_parts`, all instances together) up to which the dragged
 /// objects' shadow silhouettes are cut by each box (a clipped body each, per view and light,
 /// every drag step), not by the whole scene's box.
@@ -122,7 +141,9 @@ pub struct TemporaryShadows {
     maps: Option<(ShadowMapArray, wgpu::BindGroup)>,
     /// The temporary objects' views of this frame, every light's, as tiles of an atlas.
     atlas: Option<Atlas>,
-    atlas_bias: wgpu::Buffer,
+    /// The atlas of another tile size, kept for a shadow whose width goes back and forth across a
+    /// power of two's boundary (the tile follows the footprints: [`tile_for`]).
+    spare_atlas: Option<Atlas>,
     /// The slots of each light's views of the whole scene in `maps`.
     permanent: Vec<PermanentViews>,
     /// The first slot no light's whole-scene views hold.
@@ -181,6 +202,10 @@ struct Pending {
     whole: Vec<ShadowView>,
     needed: Vec<bool>,
     redraw: bool,
+    /// The light and the boxes of its dragged objects that cast: `run` makes `views` again for
+    /// the frame's tile.
+    source: Light,
+    casters: Vec<Aabb>,
 }
 
 /// One light of a lookup (`temporary.wgsl`, `struct Entry`).
@@ -206,7 +231,7 @@ impl TemporaryShadows {
             generation: 0,
             maps: None,
             atlas: None,
-            atlas_bias: crate::util::uniform_buffer(device, "temporary atlas bias", bytemuck::bytes_of(&bias(1))),
+            spare_atlas: None,
             permanent: Vec::new(),
             next_slot: 0,
             bias: crate::util::uniform_buffer(device, "temporary bias", bytemuck::bytes_of(&bias(1))),
@@ -297,7 +322,7 @@ impl TemporaryShadows {
     /// until every light has left the pass ([`TemporaryShadows::release`]): a light whose turn
     /// comes copies its own and resolves only where the released objects are seen or shadowed.
     pub fn end_drag(&mut self) {
-        (self.maps, self.atlas, self.next_slot) = (None, None, 0);
+        (self.maps, self.atlas, self.spare_atlas, self.next_slot) = (None, None, None, 0);
         self.permanent.clear();
         self.pending.clear();
     }
@@ -319,7 +344,9 @@ impl TemporaryShadows {
             let s = l.raw_texture.size();
             2 * u64::from(s.width) * u64::from(s.height) * u64::from(s.depth_or_array_layers) * 4
         });
-        layers + self.maps.as_ref().map_or(0, |m| m.0.bytes()) + self.atlas.as_ref().map_or(0, |a| a.maps.bytes())
+        let atlases =
+            [&self.atlas, &self.spare_atlas].iter().filter_map(|a| a.as_ref()).map(|a| a.maps.bytes()).sum::<u64>();
+        layers + self.maps.as_ref().map_or(0, |m| m.0.bytes()) + atlases
     }
 
     /// Queues the `k`-th light (the context's) for this frame's lookup, which writes into `out`
@@ -338,7 +365,12 @@ impl TemporaryShadows {
             }
         }
         let size = map_size(ctx.surface.width, ctx.surface.height);
+        // The footprints are found with the views of the smallest tile, which hold those of any
+        // larger one (their windows are padded by two texels), so the frame's tile, chosen from
+        // them, depends on the scene and the camera alone, as a fresh engine's does.
+        let tile = MIN_TILE.min(size);
         let mut views: Vec<ShadowView> = Vec::new();
+        let mut casters: Vec<Aabb> = Vec::new();
         let mut receivers = ctx.live.fit_bounds();
         // The pixels that show a dragged object (they take the permanent casters' shadow): the
         // silhouettes of its parts' boxes (a chair's seat, back and legs, not its box); then
@@ -356,7 +388,8 @@ impl TemporaryShadows {
                     }
                 }
                 if inst.casts_shadows {
-                    views.extend(light_frusta(ctx.light, &padded(&state.bounds), size).views);
+                    casters.push(padded(&state.bounds));
+                    views.extend(light_frusta(ctx.light, &padded(&state.bounds), tile).views);
                 }
             }
         }
@@ -379,9 +412,9 @@ impl TemporaryShadows {
         }
         'views: for view in &views {
             // Boxes beyond the body through the whole scene's box meet nothing.
-            let reach = Aabb::from_points(view_body(view, size, &padded(&receivers)).points());
+            let reach = Aabb::from_points(view_body(view, tile, &padded(&receivers)).points());
             for b in boxes.iter().filter(|b| b.min.cmple(reach.max).all() && reach.min.cmple(b.max).all()) {
-                match shadow_silhouette(&ctx.surface.camera, view, size, b) {
+                match shadow_silhouette(&ctx.surface.camera, view, tile, b) {
                     Silhouette::Nothing => {}
                     Silhouette::Anywhere => {
                         blocks.add_rect(whole_frame);
@@ -435,6 +468,8 @@ impl TemporaryShadows {
             whole,
             needed,
             redraw,
+            source: ctx.light.clone(),
+            casters,
         });
     }
 
@@ -494,11 +529,24 @@ impl TemporaryShadows {
             self.maps = Some((maps, group));
         }
         let (maps, group) = self.maps.as_mut().expect("made above");
+        // The tile the lookups' footprints need, and the views made again for it.
+        let tile = tile_for(widest(self.pending.iter().map(|p| p.rect)), size);
+        for p in &mut self.pending {
+            p.views = p.casters.iter().flat_map(|b| light_frusta(&p.source, b, tile).views).collect();
+        }
         let temporary: u32 = self.pending.iter().map(|p| p.views.len() as u32).sum();
         let max = shared.gpu.device.limits().max_texture_dimension_2d;
-        if self.atlas.as_ref().is_none_or(|a| a.capacity() < temporary || a.tile != size) {
-            let atlas = Atlas::new(shared, size, temporary.max(1).next_power_of_two(), max, &self.atlas_bias);
-            self.atlas = Some(atlas);
+        if self.atlas.as_ref().is_some_and(|a| a.tile != tile)
+            && self.spare_atlas.as_ref().is_some_and(|a| a.tile == tile && a.capacity() >= temporary)
+        {
+            std::mem::swap(&mut self.atlas, &mut self.spare_atlas);
+        }
+        if self.atlas.as_ref().is_none_or(|a| a.capacity() < temporary || a.tile != tile) {
+            let atlas = Atlas::new(shared, tile, temporary.max(1).next_power_of_two(), max);
+            let old = self.atlas.replace(atlas);
+            if old.as_ref().is_some_and(|a| a.tile != tile) {
+                self.spare_atlas = old;
+            }
         }
         let atlas = self.atlas.as_mut().expect("made above");
         let mut entries = Vec::with_capacity(self.pending.len());
@@ -670,15 +718,16 @@ struct Atlas {
 }
 
 impl Atlas {
-    /// Room for `capacity` tiles of `tile`² in layers of at most `max` texels a side; the lookup
-    /// reads `bias` (written here).
-    fn new(shared: &Shared, tile: u32, capacity: u32, max: u32, bias: &wgpu::Buffer) -> Self {
+    /// Room for `capacity` tiles of `tile`² in layers of at most `max` texels a side, with the
+    /// lookup's parameters of its own (an atlas of another tile may be kept beside it).
+    fn new(shared: &Shared, tile: u32, capacity: u32, max: u32) -> Self {
         let (per_side, layers) = atlas_shape(tile, capacity, max);
         // A view slot for every tile: `capacity` below counts them.
         let maps = ShadowMapArray::new(shared, per_side * tile, layers, layers * per_side * per_side);
         let values = Vec4::new(NORMAL_OFFSET, 0.0, tile as f32, per_side as f32);
-        shared.gpu.queue.write_buffer(bias, 0, bytemuck::bytes_of(&BiasUniform { values, mode: Vec4::ZERO }));
-        let group = lookup_group(shared, &maps, bias, false);
+        let params = BiasUniform { values, mode: Vec4::ZERO };
+        let bias = crate::util::uniform_buffer(&shared.gpu.device, "temporary atlas bias", bytemuck::bytes_of(&params));
+        let group = lookup_group(shared, &maps, &bias, false);
         Self { maps, group, tile, per_side }
     }
 
@@ -1354,6 +1403,27 @@ mod tests {
         // The test says something: many points on screen, and most footprints short of the whole
         // frame. Measured: 95 820 points, 300 rectangles of 300; bounds about a fifth and a third.
         assert!(seen > 20_000 && rects > 100, "{seen} points seen, {rects} rectangles");
+    }
+
+    /// A tile gives at least two texels per pixel across the widest footprint, at most twice
+    /// that (a power of two), never below `MIN_TILE` or above the output's own size.
+    #[test]
+    fn a_tile_follows_the_widest_footprint() {
+        for full in [256, 512, 1024] {
+            for w in 0..1200 {
+                let rects = [[3, 5, w / 3, w / 2], [0, 0, w, w / 4], [9, 9, 0, 0]];
+                assert_eq!(widest(rects), w);
+                let t = tile_for(w, full);
+                assert!(t.is_power_of_two() && (MIN_TILE..=full).contains(&t), "{t} for {w} px, {full}");
+                assert!(t >= (2 * w).min(full), "{t} texels for {w} px");
+                assert!(t == MIN_TILE || t < 4 * w, "{t} texels for {w} px: a smaller tile holds two a pixel");
+            }
+        }
+        // The chair's shadows in `room` at 160 × 120 (the widest 112 px): 256², not the output's 512².
+        assert_eq!(tile_for(112, map_size(160, 120)), 256);
+        assert_eq!(tile_for(0, 1024), MIN_TILE);
+        assert_eq!(tile_for(600, 1024), 1024);
+        assert_eq!(widest(std::iter::empty()), 0);
     }
 
     /// Tiles never overlap, stay within their layer, and the layers are as few as the largest

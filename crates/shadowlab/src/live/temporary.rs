@@ -658,23 +658,28 @@ impl TemporaryShadows {
                 wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
             );
         }
-        for (items, blocks, dragged) in [(&self.work, work.len(), false), (&self.dragged_work, dragged.len(), true)] {
-            let blocks = blocks as u32;
-            if blocks == 0 {
-                continue;
-            }
-            let (key, pipeline) = lookup_pipeline(shared, dragged);
-            let own = own(items);
+        // Both lookups in one pass (on a CPU adapter a pass costs about what a dispatch over a
+        // few dozen blocks does).
+        let lookups: Vec<(u32, wgpu::BindGroup, wgpu::ComputePipeline)> =
+            [(&self.work, work.len(), false), (&self.dragged_work, dragged.len(), true)]
+                .into_iter()
+                .filter(|(_, blocks, _)| *blocks > 0)
+                .map(|(items, blocks, dragged)| (blocks as u32, own(items), lookup_pipeline(shared, dragged).1))
+                .collect();
+        if !lookups.is_empty() {
             let timestamps = ctx.timer.compute_pass(device, PassKind::Visibility);
-            let mut pass = ctx
-                .encoder
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(key), timestamp_writes: timestamps });
-            pass.set_pipeline(&pipeline);
-            for (i, g) in [&group0, group, &own, &atlas.group].into_iter().enumerate() {
-                pass.set_bind_group(i as u32, Some(g), &[]);
-            }
+            let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("temporary"),
+                timestamp_writes: timestamps,
+            });
             let wide = device.limits().max_compute_workgroups_per_dimension;
-            pass.dispatch_workgroups(blocks.min(wide), blocks.div_ceil(wide), 1);
+            for (blocks, own, pipeline) in &lookups {
+                pass.set_pipeline(pipeline);
+                for (i, g) in [&group0, group, own, &atlas.group].into_iter().enumerate() {
+                    pass.set_bind_group(i as u32, Some(g), &[]);
+                }
+                pass.dispatch_workgroups((*blocks).min(wide), blocks.div_ceil(wide), 1);
+            }
         }
         for p in &self.pending {
             let [x, y, w, h] = p.rect;

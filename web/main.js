@@ -1,5 +1,6 @@
 // The page around shadowlab-web (pkg/: what web/build.sh builds with wasm-bindgen).
-// Query: ?backend=webgpu|webgl2|auto (default auto), &scene=NAME, &technique=SPEC.
+// Query: ?backend=webgpu|webgl2|auto (default auto), &scene=NAME, &technique=SPEC, &size=WxH (the
+// canvas's pixels; default 320x240).
 // `window.shadowlab` exposes the state to tests: { app, frames, error, ready }.
 import init, { App, scenes, techniques } from './pkg/shadowlab_web.js';
 
@@ -38,6 +39,8 @@ async function main() {
   const backend = query.get('backend') || 'auto';
   const scene = query.get('scene') || 'room';
   const technique = query.get('technique') || 'pcss';
+  const size = /^(\d+)x(\d+)$/.exec(query.get('size') || '');
+  if (size) [canvas.width, canvas.height] = [Number(size[1]), Number(size[2])];
   let app;
   try {
     app = await App.start(canvas, backend, scene, technique);

@@ -92,7 +92,7 @@ const cdp = await browser.target().createCDPSession();
 await cdp.send('SystemInfo.getInfo');
 await cdp.detach();
 
-async function open(backend, technique) {
+async function open(backend, technique, extra = '') {
   const page = await browser.newPage();
   await page.setViewport({ width: 720, height: 400 });
   const errors = [];
@@ -101,7 +101,7 @@ async function open(backend, technique) {
     if (m.type() === 'error') errors.push(m.text());
   });
   page.on('pageerror', e => { console.log(`  [pageerror] ${e.message}`); errors.push(e.message); });
-  await page.goto(`${base}?backend=${backend}&scene=penumbra&technique=${technique}`, { waitUntil: 'load', timeout: TIMEOUT });
+  await page.goto(`${base}?backend=${backend}&scene=penumbra&technique=${technique}${extra}`, { waitUntil: 'load', timeout: TIMEOUT });
   await page.waitForFunction(() => window.shadowlab && (window.shadowlab.ready || window.shadowlab.error), {
     timeout: TIMEOUT, polling: 100,
   });
@@ -295,6 +295,16 @@ let webgpuHard = null;
   // The frame loop logs the loss once; anything else (a panic above all) fails.
   const others = errors.filter(e => !/lost/.test(e));
   check(others.length === 0, `WebGPU: nothing but the loss is logged after it (${others.join(' | ')})`);
+  await page.close();
+}
+
+// A canvas wider than the device's largest texture (WebGPU's default limit is 8192): refused in
+// words at the start, where every target made at its size failed as a device error.
+{
+  const { page, errors } = await open('webgpu', 'hard', '&size=9000x16');
+  const error = await page.evaluate(() => window.shadowlab.error);
+  check(/9000 × 16 pixels.*at most \d+ a side/.test(error), `WebGPU: a canvas too wide is refused in words (${error})`);
+  check(errors.length === 0, `WebGPU: no console error or panic with a canvas too wide (${errors.join(' | ')})`);
   await page.close();
 }
 

@@ -129,6 +129,14 @@ impl App {
             .await
             .map_err(|e| js_error(format!("no {backend} adapter can draw into the canvas: {e}")))?;
         let gpu = Gpu::open(&adapter).await.map_err(js_error)?;
+        // Every target the renderer makes is the canvas's size: past the device's largest texture
+        // they would fail one by one, as device errors that name no cause.
+        let max = gpu.device.limits().max_texture_dimension_2d;
+        if width > max || height > max {
+            return Err(JsError::new(&format!(
+                "the canvas is {width} × {height} pixels, and this device draws at most {max} a side: make it smaller"
+            )));
+        }
         let caps = surface.get_capabilities(&adapter);
         let format = caps.formats.first().copied().ok_or_else(|| JsError::new("the canvas offers no format"))?;
         let config = wgpu::SurfaceConfiguration {

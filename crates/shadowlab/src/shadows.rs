@@ -1042,6 +1042,13 @@ impl Shadows {
         )
     }
 
+    /// Texels a side of each dragged object's own map in the last frame of a drag (two per pixel
+    /// across the widest of the lights' footprints of it, at most the output's map size), `None`
+    /// while nothing is dragged: how finely the dragged objects cast.
+    pub fn dragged_map_size(&self) -> Option<u32> {
+        self.temporary.tile()
+    }
+
     /// GPU bytes held for shadows: every technique's maps and buffers, the visibility layers and
     /// the temporary objects' maps.
     pub fn memory_bytes(&self) -> u64 {

@@ -363,6 +363,41 @@ fn a_drag_step_runs_only_the_dragged_objects_pass() {
     }
 }
 
+/// A dragged object's map has two texels a pixel across the widest of the lights' footprints of it,
+/// not the output's map size: in `room` at 160 × 120 the chair's shadows span at most 104 pixels
+/// (measured), so 256² (the output's size would give 512², as it did before). Seen from the
+/// `table` view, close up, the chair's footprints widen and so does its map (measured 512²). Fails
+/// with the output's map size for every drag (512² from the default view too).
+#[test]
+fn a_dragged_objects_map_follows_its_footprint() {
+    let gpu = gpu();
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let mut r = Renderer::new(&gpu, scene, &view, 160, 120);
+    let spec = TechniqueSpec::parse("hard:map_size=256", &[]).unwrap();
+    for i in 0..r.scene().lights.len() as u32 {
+        r.set_technique(LightId(i), &spec).unwrap();
+    }
+    r.render().unwrap();
+    assert_eq!(r.shadows.dragged_map_size(), None, "nothing dragged");
+    let chair = r.shadows.live().find_instance("chair east").unwrap();
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Temporary }).unwrap();
+    r.render().unwrap();
+    let t = r.shadows.live().instance(chair).unwrap().transform;
+    r.apply(Edit::Transform { instance: chair, transform: moved(t, Vec3::new(-0.3, 0.0, 0.2)) }).unwrap();
+    r.render().unwrap();
+    assert_eq!(r.shadows.dragged_map_size(), Some(256), "the chair's shadows span about 100 of 160 pixels");
+    let near = r.scene().view("table").unwrap().clone();
+    r.set_view(&near);
+    r.render().unwrap();
+    let close = r.shadows.dragged_map_size().unwrap();
+    println!("dragged map: {close}² from the table");
+    assert!(close > 256, "from the table the chair fills more of the screen: {close}²");
+    r.apply(Edit::Mobility { instance: chair, mobility: Mobility::Dynamic }).unwrap();
+    r.render().unwrap();
+    assert_eq!(r.shadows.dragged_map_size(), None, "released");
+}
+
 /// A drag compiles no pipeline: the dragged objects' pass is compiled with the engine
 /// (`TemporaryShadows::warm`), not in the frame a light first joins the drag, where it took 19.5 ms
 /// of recording on lavapipe (`room`, 128 × 96: 17 drag steps). Picked up, moved twice and released.

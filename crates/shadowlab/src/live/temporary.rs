@@ -339,6 +339,12 @@ impl TemporaryShadows {
         self.layers = None;
     }
 
+    /// Texels a side of each dragged object's map in the last drag step (`None` once the drag
+    /// ended).
+    pub fn tile(&self) -> Option<u32> {
+        self.atlas.as_ref().map(|a| a.tile)
+    }
+
     pub fn bytes(&self) -> u64 {
         let layers = self.layers.as_ref().map_or(0, |l| {
             let s = l.raw_texture.size();

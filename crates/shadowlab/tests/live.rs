@@ -364,8 +364,9 @@ fn a_drag_step_runs_only_the_dragged_objects_pass() {
 }
 
 /// A dragged object's map has two texels a pixel across the widest of the lights' footprints of it,
-/// not the output's map size: in `room` at 160 × 120 the chair's shadows span at most 104 pixels
-/// (measured), so 256² (the output's size would give 512², as it did before). Seen from the
+/// not the output's map size: in `room` at 160 × 120 the chair's shadows span about 100 pixels
+/// (88–112 over the `drag` timeline, measured), so 256² (the output's size would give 512², as it
+/// did before). Seen from the
 /// `table` view, close up, the chair's footprints widen and so does its map (measured 512²). Fails
 /// with the output's map size for every drag (512² from the default view too).
 #[test]

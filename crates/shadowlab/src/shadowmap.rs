@@ -322,6 +322,13 @@ impl ShadowMapArray {
         );
     }
 
+    /// Lets slot `slot` draw every caster, not only those that reach its view's window.
+    pub fn draw_everything_in(&mut self, slot: u32) {
+        if let Some(clip) = self.clips.get_mut(slot as usize) {
+            *clip = None;
+        }
+    }
+
     /// Renders every permanent shadow caster into `layer` from the view in `slot`. Returns the
     /// draws issued.
     pub fn render(&self, ctx: &mut FrameContext<'_>, layer: u32, slot: u32, raster: &Raster) -> u32 {

@@ -175,6 +175,9 @@ pub struct Shadows {
     permanent: Option<PermanentSurface>,
     /// The dragged objects' shadows, every light's in one pass.
     temporary: TemporaryShadows,
+    /// Whether the dragged objects' passes were run once over nothing
+    /// ([`TemporaryShadows::rehearse`]).
+    rehearsed: bool,
 }
 
 impl Shadows {
@@ -205,6 +208,7 @@ impl Shadows {
             map_plan: None,
             permanent: None,
             temporary,
+            rehearsed: false,
         }
     }
 
@@ -1012,6 +1016,35 @@ impl Shadows {
             };
             let outs: Vec<&VisibilityLayer> = self.lights.iter().map(|s| &s.layer).collect();
             self.temporary.run(&mut ctx, shadowed, &outs);
+        }
+        // The first frame with a light compiles what a drag's first frames would otherwise.
+        if !self.rehearsed
+            && let Some(s) = order.first().map(|&k| &self.lights[k])
+            && let Some(light) = self.live.light(s.light)
+        {
+            let mut ctx = FrameContext {
+                gpu: &gpu,
+                shared: &self.shared,
+                encoder,
+                scene: self.live.scene(),
+                gpu_scene: &self.gpu_scene,
+                surface,
+                light,
+                light_id: s.light,
+                light_buffer: &s.light_buffer,
+                timer,
+                frame_index: self.frame_index,
+                live: &self.live,
+                cache: &mut self.cache,
+                owner: 0,
+                budget: &mut budget,
+                costs: &self.costs,
+                region: None,
+                turn: false,
+                kept: false,
+            };
+            self.temporary.rehearse(&mut ctx);
+            self.rehearsed = true;
         }
         let mut work = self.cache.begin_frame();
         self.last_units = self.cache.take_units();

@@ -399,6 +399,38 @@ fn a_dragged_objects_map_follows_its_footprint() {
     assert_eq!(r.shadows.dragged_map_size(), None, "released");
 }
 
+/// The engine's first frame also runs a drag's passes once over nothing, so that a CPU adapter
+/// compiles their shaders then, not in a drag (`TemporaryShadows::rehearse`). That run must leave
+/// the frame's own drag alone: with the chair dragged from the start, the first frame (which
+/// rehearses) shows, to the last bit, what a later frame with the chair back in the same place
+/// shows (it runs the pass again, and rehearses nothing), and a fresh engine agrees with both.
+#[test]
+fn the_first_frames_rehearsal_leaves_a_drag_alone() {
+    let mut live = Live::new(load_scene("room").unwrap().scene, "hard:map_size=512");
+    let chair = live.id("chair east");
+    live.set_mobility(chair, Mobility::Temporary);
+    live.move_by(chair, Vec3::new(-0.5, 0.0, 0.3));
+    let at = transform_of(&live, chair);
+    let w = live.frame();
+    assert!(w.temporary_views > 0, "the chair casts through its pass from the first frame: {w:?}");
+    let first = live.renderer.live_visibility().unwrap();
+    live.move_by(chair, Vec3::new(0.4, 0.0, 0.0));
+    live.frame();
+    live.renderer.apply(Edit::Transform { instance: chair, transform: at }).unwrap();
+    let w = live.check("the chair back where it was in the first frame");
+    assert!(w.temporary_views > 0, "the pass ran again: {w:?}");
+    let again = live.renderer.live_visibility().unwrap();
+    assert_eq!(first.len(), again.len());
+    for ((light, a), (_, b)) in first.iter().zip(&again) {
+        let differ = a.iter().zip(b).filter(|(x, y)| x != y).count();
+        let name = &live.renderer.scene().lights[*light].name;
+        assert_eq!(
+            differ, 0,
+            "light '{name}': {differ} pixels differ between the first frame and the same state later"
+        );
+    }
+}
+
 /// A drag compiles no pipeline: the dragged objects' pass is compiled with the engine
 /// (`TemporaryShadows::warm`), not in the frame a light first joins the drag, where it took 19.5 ms
 /// of recording on lavapipe (`room`, 128 × 96: 17 drag steps). Picked up, moved twice and released.

@@ -259,6 +259,70 @@ impl TemporaryShadows {
         }
     }
 
+    /// Runs a drag's own passes once, over nothing, in the engine's first frame. A CPU adapter
+    /// (lavapipe) compiles a pipeline's shader for the state it is used with at its first draw or
+    /// dispatch, not when the pipeline is made ([`TemporaryShadows::warm`] makes them): in `room` at
+    /// 160 × 120 the first draw of a light's whole-scene view took 12.3 ms of GPU time against 2.8
+    /// ms in a second drag, and the lookups 3.5 against 0.8 ms, all in the frame the first light
+    /// joined the first drag. Here every caster is drawn into a scratch map with each depth
+    /// pipeline it needs, and both lookups are dispatched over no block, with textures of the
+    /// shapes a drag binds (a texture's power-of-two sides are part of the compiled state; the
+    /// atlas is square with a power-of-two tile, its side a power of two or not). Nothing here
+    /// outlives the call, and no work is counted.
+    pub fn rehearse(&mut self, ctx: &mut FrameContext<'_>) {
+        if !ctx.shared.compute {
+            return;
+        }
+        let shared = ctx.shared;
+        let device = &shared.gpu.device;
+        let (width, height) = (ctx.surface.width, ctx.surface.height);
+        let size = map_size(width, height);
+        let whole = light_frusta(ctx.light, &padded(&ctx.live.fit_bounds()), size).views;
+        let Some(view) = whole.first() else { return };
+        let mut maps = ShadowMapArray::new(shared, size, 1, 1);
+        maps.set_views(&ctx.gpu.queue, 0, std::slice::from_ref(view));
+        maps.draw_everything_in(0);
+        let every = [Mobility::Static, Mobility::Dynamic, Mobility::Temporary];
+        maps.render_casters(ctx, 0, 0, &RASTER, &every, true);
+        // Buffers of its own: a write to the pass's would land before this frame's real lookups.
+        let params = crate::util::uniform_buffer(device, "temporary bias (rehearsal)", bytemuck::bytes_of(&bias(size)));
+        let group = lookup_group(shared, &maps, &params, false);
+        // No block: every workgroup returns at once.
+        let work = work_buffer(device, 1);
+        let layers = Layers::new(shared, width, height, &[ctx.light_id]);
+        // Group 0's output stands for a light's own layer: a texture of its own.
+        let own_layer = Layers::new(shared, width, height, &[ctx.light_id]);
+        let group0 = shared.resolve_bind_group_in(ctx.surface, ctx.light_buffer, &own_layer.raw[0], &self.region);
+        let own = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("temporary (rehearsal)"),
+            layout: &layout(shared),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&layers.raw_view()) },
+                wgpu::BindGroupEntry { binding: 1, resource: self.batch.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&ctx.surface.depth) },
+                wgpu::BindGroupEntry { binding: 3, resource: self.lights.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&layers.out_view) },
+                wgpu::BindGroupEntry { binding: 5, resource: work.as_entire_binding() },
+            ],
+        });
+        let max = device.limits().max_texture_dimension_2d;
+        // One tile (its side a power of two), and eight (three to a side: not one).
+        let atlases = [Atlas::new(shared, MIN_TILE, 1, max), Atlas::new(shared, MIN_TILE, 8, max)];
+        let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("temporary (rehearsal)"),
+            timestamp_writes: None,
+        });
+        for dragged in [false, true] {
+            pass.set_pipeline(&lookup_pipeline(shared, dragged).1);
+            for atlas in &atlases {
+                for (i, g) in [&group0, &group, &own, &atlas.group].into_iter().enumerate() {
+                    pass.set_bind_group(i as u32, Some(g), &[]);
+                }
+                pass.dispatch_workgroups(1, 1, 1);
+            }
+        }
+    }
+
     /// Whether any instance is temporary: the techniques then shadow the permanent surface and this
     /// pass runs, for the shadows the dragged objects cast and those they receive.
     pub fn active(live: &LiveScene) -> bool {

@@ -988,8 +988,13 @@ impl Shadows {
         if !casting && self.lights.iter().all(|s| s.resolved.as_ref().is_none_or(|r| !r.casting)) {
             self.temporary.release();
         }
-        // Every light's dragged-object shadows in one lookup.
-        if let Some((first, light)) = self.temporary.first_pending().and_then(|k| {
+        // Every light's dragged-object shadows in one lookup; and in the first frame with a light,
+        // that pass once over nothing, so that what a drag's first frames would compile is compiled
+        // now (`TemporaryShadows::rehearse`). Either runs under one light's context (the lookup's
+        // first, or any).
+        let pending = self.temporary.first_pending();
+        let rehearse = !self.rehearsed;
+        if let Some((first, light)) = pending.or_else(|| order.first().copied().filter(|_| rehearse)).and_then(|k| {
             let s = &self.lights[k];
             self.live.light(s.light).map(|l| (s, l))
         }) {
@@ -1014,37 +1019,14 @@ impl Shadows {
                 turn: false,
                 kept: false,
             };
-            let outs: Vec<&VisibilityLayer> = self.lights.iter().map(|s| &s.layer).collect();
-            self.temporary.run(&mut ctx, shadowed, &outs);
-        }
-        // The first frame with a light compiles what a drag's first frames would otherwise.
-        if !self.rehearsed
-            && let Some(s) = order.first().map(|&k| &self.lights[k])
-            && let Some(light) = self.live.light(s.light)
-        {
-            let mut ctx = FrameContext {
-                gpu: &gpu,
-                shared: &self.shared,
-                encoder,
-                scene: self.live.scene(),
-                gpu_scene: &self.gpu_scene,
-                surface,
-                light,
-                light_id: s.light,
-                light_buffer: &s.light_buffer,
-                timer,
-                frame_index: self.frame_index,
-                live: &self.live,
-                cache: &mut self.cache,
-                owner: 0,
-                budget: &mut budget,
-                costs: &self.costs,
-                region: None,
-                turn: false,
-                kept: false,
-            };
-            self.temporary.rehearse(&mut ctx);
-            self.rehearsed = true;
+            if pending.is_some() {
+                let outs: Vec<&VisibilityLayer> = self.lights.iter().map(|s| &s.layer).collect();
+                self.temporary.run(&mut ctx, shadowed, &outs);
+            }
+            if rehearse {
+                self.temporary.rehearse(&mut ctx);
+                self.rehearsed = true;
+            }
         }
         let mut work = self.cache.begin_frame();
         self.last_units = self.cache.take_units();

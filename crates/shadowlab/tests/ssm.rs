@@ -514,3 +514,64 @@ fn a_pyramid_past_the_binding_limit_is_a_clear_error() {
         other => panic!("needed {needed} bytes against a limit of {limit}: {other:?}"),
     }
 }
+
+/// A device like `common::gpu`'s (lavapipe), whose storage bindings hold at most `bytes`.
+fn gpu_with_binding_limit(bytes: u64) -> shadowlab::Gpu {
+    pollster::block_on(async {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapter =
+            instance.request_adapter(&wgpu::RequestAdapterOptions::default()).await.expect("a Vulkan adapter");
+        let mut limits = adapter.limits();
+        limits.max_storage_buffer_binding_size = bytes;
+        let wanted = wgpu::Features::TIMESTAMP_QUERY
+            | wgpu::Features::DEPTH_CLIP_CONTROL
+            | wgpu::Features::DEPTH32FLOAT_STENCIL8;
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("small bindings"),
+                required_features: adapter.features() & wanted,
+                required_limits: limits,
+                ..Default::default()
+            })
+            .await
+            .expect("a device with smaller bindings");
+        shadowlab::Gpu::from_device(device, queue, &adapter.get_info())
+    })
+}
+
+/// Resized across the size past which the list cannot hold every listed pixel's setup (a storage
+/// binding's limit: about 4K on CPU adapters and in browsers), `ssm` makes its list again without
+/// them and its pipelines follow, and back again: at each size every light equals, bit for bit, a
+/// fresh engine's on a device that binds enough (the same code either way). The limit is lowered
+/// to 1 MiB on a device of the test's own: 128² records (320 KiB of list), 256² does not (1.25
+/// MiB). Fails if the pipelines keep the recording variant over the smaller list (7 977 pixels of
+/// a light differ at 256²); and failed while a resize
+/// rebuilt the view from the camera's matrices (1 242 pixels of a light at 128²).
+#[test]
+fn a_resize_across_the_record_limit_keeps_the_image() {
+    let small = gpu_with_binding_limit(1 << 20);
+    let gpu = gpu();
+    let scene = load_scene("room").unwrap().scene;
+    let view = scene.view("default").unwrap().clone();
+    let lights: Vec<LightId> = (0..scene.lights.len() as u32).map(LightId).collect();
+    let spec = "ssm:map_size=256";
+    let technique = TechniqueSpec::parse(spec, &[]).unwrap();
+    let mut live = Renderer::new(&small, scene.clone(), &view, 128, 128);
+    for &l in &lights {
+        live.set_technique(l, &technique).unwrap();
+    }
+    for size in [128, 256, 128] {
+        live.resize(size, size).unwrap();
+        live.render().unwrap();
+        assert!(small.take_error().is_none(), "{size}²: {:?}", small.take_error());
+        let fresh = render(&gpu, &scene, &view, size, spec, &lights);
+        for &l in &lights {
+            let mine = live.read_visibility(l).unwrap().expect("shadowed");
+            let theirs = fresh.visibility(l);
+            let differ = mine.iter().zip(&theirs).filter(|(a, b)| !(a.is_nan() && b.is_nan()) && a != b).count();
+            assert_eq!(differ, 0, "{size}²: light {}: {differ} pixels differ from a fresh engine", l.index());
+        }
+    }
+}

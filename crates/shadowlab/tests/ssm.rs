@@ -546,9 +546,9 @@ fn gpu_with_binding_limit(bytes: u64) -> shadowlab::Gpu {
 /// them and its pipelines follow, and back again: at each size every light equals, bit for bit, a
 /// fresh engine's on a device that binds enough (the same code either way). The limit is lowered
 /// to 1 MiB on a device of the test's own: 128² records (320 KiB of list), 256² does not (1.25
-/// MiB). Fails if the pipelines keep the recording variant over the smaller list (7 977 pixels of
-/// a light differ at 256²); and failed while a resize
-/// rebuilt the view from the camera's matrices (1 242 pixels of a light at 128²).
+/// MiB), as `ssm_setups_recorded` says. Fails if the pipelines keep the recording variant over
+/// the smaller list (7 977 pixels of a light differ at 256²); and failed while a resize rebuilt
+/// the view from the camera's matrices (1 242 pixels of a light at 128²).
 #[test]
 fn a_resize_across_the_record_limit_keeps_the_image() {
     let small = gpu_with_binding_limit(1 << 20);
@@ -565,7 +565,21 @@ fn a_resize_across_the_record_limit_keeps_the_image() {
     for size in [128, 256, 128] {
         live.resize(size, size).unwrap();
         live.render().unwrap();
-        assert!(small.take_error().is_none(), "{size}²: {:?}", small.take_error());
+        let error = small.take_error();
+        assert!(error.is_none(), "{size}²: {error:?}");
+        let recorded: Vec<f64> = live
+            .shadows
+            .stats()
+            .extra
+            .iter()
+            .filter(|(k, _)| k.ends_with("ssm_setups_recorded"))
+            .map(|(_, v)| *v)
+            .collect();
+        let expected = if size == 128 { 1.0 } else { 0.0 };
+        assert!(
+            recorded.len() == lights.len() && recorded.iter().all(|&r| r == expected),
+            "{size}²: setups recorded {recorded:?}, expected {expected} for each light"
+        );
         let fresh = render(&gpu, &scene, &view, size, spec, &lights);
         for &l in &lights {
             let mine = live.read_visibility(l).unwrap().expect("shadowed");

@@ -753,7 +753,11 @@ impl ShadowTechnique for Ssm {
             passes: passes + u32::from(self.reduced > 0) + 3,
             draws,
             triangles,
-            extra: vec![("ssm_pyramid_levels_reduced".into(), f64::from(self.reduced))],
+            extra: vec![
+                ("ssm_pyramid_levels_reduced".into(), f64::from(self.reduced)),
+                // 1 while the list keeps each listed pixel's setup (`Screen::recorded`).
+                ("ssm_setups_recorded".into(), f64::from(u8::from(self.screen.as_ref().is_some_and(|s| s.recorded)))),
+            ],
         }
     }
 
